@@ -1,0 +1,1 @@
+"""benchmarks: reproducible accuracy and speed reports against OpenCV StereoSGBM."""

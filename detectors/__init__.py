@@ -1,0 +1,3 @@
+"""detectors: exported ONNX object detectors run with onnxruntime."""
+
+__all__: list[str] = []

@@ -1,0 +1,90 @@
+"""Command-line entry point: ``python -m stereo_classic <command> ...``.
+
+Each sub-command lives in its own module that defines ``add_parser(subparsers)`` (registering
+its options and ``set_defaults(func=...)``) and a ``func(args) -> int``. Logs go to stderr,
+data to stdout or files. Exit codes: 0 success, 1 runtime failure, 2 usage error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+from collections.abc import Sequence
+
+__all__ = ["main", "console_main", "UsageError", "build_parser"]
+
+log = logging.getLogger("stereo_classic")
+
+# Sub-command modules, in the order they appear in ``--help``.
+_SUBCOMMAND_MODULES: tuple[str, ...] = (
+    "stereo_classic.cli_run",
+    "stereo_classic.cli_disparity",
+    "stereo_classic.cli_calibrate",
+)
+
+
+class UsageError(ValueError):
+    """A command line that parses but makes no sense (exit code 2)."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m stereo_classic",
+        description="Stereo depth, object detection and per-object distance from a calibrated stereo pair.",
+    )
+    verbosity = parser.add_mutually_exclusive_group()
+    verbosity.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug); full tracebacks")
+    verbosity.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in _SUBCOMMAND_MODULES:
+        try:  # TRANSITIONAL while the sub-command modules are being written; removed before release
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name != name:
+                raise
+            continue
+        module.add_parser(subparsers)
+    return parser
+
+
+def _configure_logging(verbose: int, quiet: bool) -> None:
+    level = logging.WARNING if quiet else (logging.DEBUG if verbose >= 2 else logging.INFO)
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(message)s" if verbose == 0 else "%(levelname)s %(name)s: %(message)s"))
+    root = logging.getLogger()
+    root.handlers[:] = [handler]
+    root.setLevel(level)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the process exit code (0 ok, 1 runtime failure, 2 usage error)."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(list(argv) if argv is not None else None)
+    except SystemExit as exc:  # argparse: --help (0) or a usage error (2)
+        return int(exc.code or 0)
+    _configure_logging(args.verbose, args.quiet)
+    if not getattr(args, "func", None):
+        parser.print_help(sys.stderr)
+        return 2
+    try:
+        return int(args.func(args))
+    except UsageError as exc:
+        if args.verbose:
+            log.exception("usage error")
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    except (ValueError, OSError, RuntimeError, MemoryError) as exc:
+        if args.verbose:
+            log.exception("failed")
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+
+
+def console_main() -> None:
+    sys.exit(main())
