@@ -1,0 +1,446 @@
+"""Public stereo matcher: checked input, one conversion to grey, numba SGM, post-processing.
+
+>>> import numpy as np
+>>> from stereo_classic import compute_disparity
+>>> rng = np.random.default_rng(0)
+>>> right = rng.integers(0, 256, (40, 80), dtype=np.uint8)
+>>> left = np.roll(right, 6, axis=1)                  # every pixel moved 6 px: d = x_left - x_right = 6
+>>> dmap = compute_disparity(left, right, num_disparities=16)
+>>> float(np.nanmedian(dmap.disparity))
+6.0
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from types import ModuleType
+from typing import Any
+
+import cv2
+import numpy as np
+
+from stereo_classic.params import SGMParams
+from stereo_classic.postprocess import fill_holes, filter_speckles
+
+__all__ = [
+    "compute_disparity",
+    "StereoMatcher",
+    "DisparityMap",
+    "estimate_memory",
+    "MemoryBudgetError",
+    "StereoInputError",
+    "to_gray_uint8",
+    "SUPPORTED_DTYPES",
+]
+
+#: Image dtypes accepted by the matcher.
+SUPPORTED_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.float32), np.dtype(np.float64))
+# Percentiles (of both images together) mapped to 0 and 255 when scaling uint16 / float images.
+_SCALE_PERCENTILES = (0.1, 99.9)
+# At most this many samples per image for the percentiles.
+_SCALE_SAMPLES = 1 << 20
+# Keys of DisparityMap.validity whose value is an int count (failed_* may be None: not measured).
+_VALIDITY_KEYS = ("pixels", "valid", "unknown_matcher", "failed_lr", "failed_uniqueness", "speckle_removed",
+                  "filled", "border", "border_valid")
+_GiB = 1024**3
+
+
+class StereoInputError(ValueError):
+    """A left/right image the matcher cannot use (shape, dtype, size mismatch, NaN/inf, too small)."""
+
+
+class MemoryBudgetError(ValueError):
+    """The estimated working memory exceeds the limit; raised before anything large is allocated."""
+
+
+def _core() -> ModuleType:
+    """The numba kernels (imported lazily: importing stereo_classic must not compile anything)."""
+    from stereo_classic import _sgm_core
+
+    return _sgm_core
+
+
+# --------------------------------------------------------------------------------------------------
+# result object
+# --------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class DisparityMap:
+    """A disparity map with the parameters that made it, per-stage timings and a validity summary.
+
+    Attributes
+    ----------
+    disparity : (H, W) float32
+        Left-view disparity in pixels, ``d = x_left - x_right``; NaN where unknown.
+    disparity_right : (H, W) float32 or None
+        Right-view disparity (pixels, NaN unknown) when the left-right check computed one.
+    params : SGMParams
+        The parameters used.
+    timings_ms : dict[str, float]
+        Milliseconds per stage: "prepare" (checks + grey conversion), the matcher's stages
+        ("cost", "aggregate", "select", as reported by the kernels), "postprocess", "total".
+    validity : dict[str, int | None]
+        Pixel counts: "pixels" (H * W), "valid" (finite in ``disparity``), "unknown_matcher" (NaN
+        out of the matcher: uniqueness, left-right check, nothing to match), "failed_lr" and
+        "failed_uniqueness" (None when the kernels do not report them), "speckle_removed",
+        "filled" (by ``fill_holes``), "border" (pixels in the image bands where the full disparity
+        range does not fit, matched with the range that does) and "border_valid".
+    """
+
+    disparity: np.ndarray
+    disparity_right: np.ndarray | None
+    params: SGMParams
+    timings_ms: dict[str, float] = field(default_factory=dict)
+    validity: dict[str, int | None] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        disp = self.disparity
+        if not isinstance(disp, np.ndarray) or disp.ndim != 2 or disp.dtype != np.float32:
+            raise ValueError(f"`disparity` must be a (H, W) float32 array, got "
+                             f"{type(disp).__name__} {getattr(disp, 'shape', None)} {getattr(disp, 'dtype', None)}")
+        if np.isinf(disp).any():
+            raise ValueError("`disparity` must hold finite values or NaN (unknown), got inf")
+        right = self.disparity_right
+        if right is not None and (not isinstance(right, np.ndarray) or right.shape != disp.shape
+                                  or right.dtype != np.float32):
+            raise ValueError(f"`disparity_right` must be None or a float32 array of shape {disp.shape}, got "
+                             f"{getattr(right, 'shape', type(right).__name__)} {getattr(right, 'dtype', '')}")
+        if not isinstance(self.params, SGMParams):
+            raise ValueError(f"`params` must be an SGMParams, got {type(self.params).__name__}")
+        if not isinstance(self.timings_ms, Mapping) or not all(
+                isinstance(k, str) and isinstance(v, (int, float)) and math.isfinite(v) and v >= 0
+                for k, v in self.timings_ms.items()):
+            raise ValueError(f"`timings_ms` must map stage names to non-negative milliseconds, got {self.timings_ms!r}")
+        object.__setattr__(self, "timings_ms", {k: float(v) for k, v in self.timings_ms.items()})
+        if not isinstance(self.validity, Mapping) or not all(
+                isinstance(k, str) and (v is None or (isinstance(v, (int, np.integer)) and v >= 0))
+                for k, v in self.validity.items()):
+            raise ValueError(f"`validity` must map names to non-negative pixel counts or None, got {self.validity!r}")
+        validity = {k: (None if v is None else int(v)) for k, v in self.validity.items()}
+        n_valid = int(np.isfinite(disp).sum())
+        if validity.get("valid", n_valid) != n_valid or validity.get("pixels", disp.size) != disp.size:
+            raise ValueError(f"`validity` does not describe `disparity`: it says {validity.get('valid')} valid of "
+                             f"{validity.get('pixels')}, the map has {n_valid} of {disp.size}")
+        validity["valid"] = n_valid
+        validity["pixels"] = int(disp.size)
+        object.__setattr__(self, "validity", validity)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(H, W) of the map."""
+        return self.disparity.shape  # type: ignore[return-value]
+
+    @property
+    def valid_mask(self) -> np.ndarray:
+        """(H, W) bool, True where the disparity is known."""
+        return np.isfinite(self.disparity)
+
+    @property
+    def valid_fraction(self) -> float:
+        """Fraction (0..1) of pixels with a known disparity."""
+        return self.validity["valid"] / max(1, self.disparity.size)  # type: ignore[operator]
+
+
+# --------------------------------------------------------------------------------------------------
+# input checks and conversion
+# --------------------------------------------------------------------------------------------------
+def _as_image(name: str, image: Any) -> np.ndarray:
+    if isinstance(image, (str, bytes)) or image is None:
+        raise StereoInputError(f"`{name}` must be an image array (H, W) or (H, W, 3), got {type(image).__name__}"
+                               + ("; read files with stereo_classic.io.read_image" if isinstance(image, str) else ""))
+    try:
+        arr = np.asarray(image)
+    except (ValueError, TypeError) as exc:
+        raise StereoInputError(f"`{name}` must be an image array, got {type(image).__name__} ({exc})") from None
+    if arr.dtype not in SUPPORTED_DTYPES:
+        raise StereoInputError(f"`{name}` must have dtype uint8, uint16, float32 or float64, got {arr.dtype}")
+    if arr.ndim == 3 and arr.shape[2] == 1:
+        arr = arr[:, :, 0]
+    if not (arr.ndim == 2 or (arr.ndim == 3 and arr.shape[2] == 3)):
+        raise StereoInputError(f"`{name}` must be grey (H, W) or colour BGR (H, W, 3), got shape {arr.shape}")
+    if arr.size == 0:
+        raise StereoInputError(f"`{name}` must not be empty, got shape {arr.shape}")
+    return arr
+
+
+def _min_size(params: SGMParams) -> tuple[int, int]:
+    """Smallest (height, width) an image may have for these params."""
+    if params.cost == "census":
+        cw, ch = params.census_window
+        return max(params.block_size, ch), max(params.block_size, cw)
+    return params.block_size, params.block_size
+
+
+def _check_pair(left: Any, right: Any, params: SGMParams) -> tuple[np.ndarray, np.ndarray]:
+    """All checks that need no allocation; returns the two arrays (views of the input)."""
+    left_arr = _as_image("left", left)
+    right_arr = _as_image("right", right)
+    if left_arr.shape != right_arr.shape:
+        raise StereoInputError(f"`left` and `right` must have the same shape, got left {left_arr.shape} "
+                               f"and right {right_arr.shape}")
+    if left_arr.dtype != right_arr.dtype:
+        raise StereoInputError(f"`left` and `right` must have the same dtype, got left {left_arr.dtype} "
+                               f"and right {right_arr.dtype}")
+    height, width = left_arr.shape[:2]
+    min_h, min_w = _min_size(params)
+    if height < min_h or width < min_w:
+        what = (f"`block_size` {params.block_size} and `census_window` {params.census_window}"
+                if params.cost == "census" else f"`block_size` {params.block_size}")
+        raise StereoInputError(f"images must be at least {min_h} x {min_w} (height x width) for {what}, "
+                               f"got {height} x {width}")
+    if params.num_disparities > width:
+        raise StereoInputError(f"`num_disparities` ({params.num_disparities}) must not be larger than the image "
+                               f"width ({width})")
+    if params.max_disparity >= width or params.min_disparity <= -width:
+        raise StereoInputError(
+            f"the disparity range `min_disparity`..`min_disparity + num_disparities - 1` "
+            f"({params.min_disparity}..{params.max_disparity}) must lie within -{width - 1}..{width - 1} "
+            f"for an image {width} px wide")
+    return left_arr, right_arr
+
+
+def _check_finite(name: str, arr: np.ndarray) -> None:
+    if arr.dtype.kind != "f":
+        return
+    # min / max propagate NaN and expose inf without allocating a mask of the image size.
+    if np.isfinite(arr.min()) and np.isfinite(arr.max()):
+        return
+    n_nan = int(np.isnan(arr).sum())
+    n_inf = int(np.isinf(arr).sum())
+    raise StereoInputError(f"`{name}` must hold finite values, got {n_nan} NaN and {n_inf} inf; "
+                           "replace them (e.g. np.nan_to_num) or mask them out before matching")
+
+
+def _gray_float(arr: np.ndarray) -> np.ndarray:
+    """float64 grey of an (H, W) or (H, W, 3) BGR array (ITU-R 601 weights, as cv2.COLOR_BGR2GRAY)."""
+    if arr.ndim == 2:
+        return arr.astype(np.float64)
+    b, g, r = (arr[:, :, i].astype(np.float64) for i in range(3))
+    return 0.114 * b + 0.587 * g + 0.299 * r
+
+
+def _sample(gray: np.ndarray) -> np.ndarray:
+    step = max(1, int(math.ceil(math.sqrt(gray.size / _SCALE_SAMPLES))))
+    return gray[::step, ::step].ravel()
+
+
+def to_gray_uint8(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Convert a checked pair once to C-contiguous (H, W) uint8 grey, both with the same mapping.
+
+    uint8: colour via ``cv2.COLOR_BGR2GRAY``, grey as is (no copy when already contiguous).
+    uint16 and float: grey with the same weights in float64, then one linear map shared by both
+    images that sends the 0.1th percentile of their pixels to 0 and the 99.9th to 255 (clipped,
+    rounded). Sharing the map keeps the brightness relation between the cameras; the percentiles
+    make a few hot pixels or a 12-bit range in a 16-bit container harmless. A constant pair maps to 0.
+    """
+    if left.dtype == np.uint8:
+        def convert(arr: np.ndarray) -> np.ndarray:
+            if arr.ndim == 3:
+                return cv2.cvtColor(np.ascontiguousarray(arr), cv2.COLOR_BGR2GRAY)
+            return np.ascontiguousarray(arr)
+
+        return convert(left), convert(right)
+    gray_left, gray_right = _gray_float(left), _gray_float(right)
+    samples = np.concatenate([_sample(gray_left), _sample(gray_right)])
+    lo, hi = (float(v) for v in np.percentile(samples, _SCALE_PERCENTILES))
+    if not hi > lo:
+        lo, hi = float(samples.min()), float(samples.max())
+    out = []
+    for gray in (gray_left, gray_right):
+        if hi > lo:
+            # Divide before subtracting so that extreme float64 values (1e308) cannot overflow.
+            scale = max(abs(lo), abs(hi))
+            span = hi / scale - lo / scale
+            mapped = (gray / scale - lo / scale) * (255.0 / span)
+            np.clip(mapped, 0.0, 255.0, out=mapped)
+            out.append(np.rint(mapped).astype(np.uint8))
+        else:
+            out.append(np.zeros(gray.shape, np.uint8))
+    return out[0], out[1]
+
+
+# --------------------------------------------------------------------------------------------------
+# memory
+# --------------------------------------------------------------------------------------------------
+def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = None, *,
+                    dtype: Any = np.uint8) -> int:
+    """Bytes the matcher will allocate for one pair of this shape (not counting the input images).
+
+    Parameters
+    ----------
+    image_shape : tuple
+        (H, W) or (H, W, C) of one image.
+    params : SGMParams, optional
+        Default ``SGMParams()``.
+    dtype : numpy dtype, keyword-only
+        Input dtype (uint16/float inputs need float64 grey copies during conversion).
+
+    Returns
+    -------
+    int
+        Bytes: the kernels' working memory (cost/sum volume and row buffers) plus the grey
+        copies, the output maps and the post-processing temporaries.
+    """
+    params = SGMParams() if params is None else params
+    if not isinstance(params, SGMParams):
+        raise ValueError(f"`params` must be an SGMParams or None, got {type(params).__name__}")
+    if not isinstance(image_shape, (tuple, list)) or len(image_shape) not in (2, 3) or not all(
+            isinstance(v, (int, np.integer)) and v >= 0 for v in image_shape):
+        raise ValueError(f"`image_shape` must be (H, W) or (H, W, C) of non-negative integers, got {image_shape!r}")
+    height, width = int(image_shape[0]), int(image_shape[1])
+    pixels = height * width
+    core = _core().memory_bytes(height, width, params.num_disparities, paths=params.paths,
+                                lr_check=params.lr_check is not None)
+    conversion = 2 * pixels  # the two uint8 grey images
+    if np.dtype(dtype) != np.uint8:
+        conversion += 3 * 8 * pixels  # float64 grey of one image and the mapping temporary, both images
+    outputs = 2 * 4 * pixels  # left and right float32 disparity
+    post = (4 + 2 + 4 + 1) * pixels  # speckle: float32 copy, int16 scaled copy, masks
+    if params.fill_holes:
+        post += (5 * 8 + 4 * 4) * pixels  # row indices (int64) and float temporaries of the fill
+    return int(core + conversion + outputs + post)
+
+
+def _check_memory(shape: tuple[int, ...], dtype: Any, params: SGMParams) -> int:
+    need = estimate_memory(tuple(shape), params, dtype=dtype)
+    limit = params.effective_memory_limit
+    if need > limit:
+        height, width = shape[0], shape[1]
+        raise MemoryBudgetError(
+            f"matching {width} x {height} px with num_disparities={params.num_disparities} needs about "
+            f"{need / _GiB:.2f} GiB ({need} bytes), above the memory limit of {limit / _GiB:.2f} GiB ({limit} bytes); use a smaller disparity "
+            f"range (num_disparities) or downscale the images (e.g. cv2.resize by 0.5 and halve the range), "
+            f"or raise `memory_limit` / $STEREO_CLASSIC_MEMORY_LIMIT")
+    return need
+
+
+# --------------------------------------------------------------------------------------------------
+# matching
+# --------------------------------------------------------------------------------------------------
+def _resolve_params(params: SGMParams | None, overrides: dict[str, Any]) -> SGMParams:
+    if params is None:
+        params = SGMParams()
+    elif not isinstance(params, SGMParams):
+        raise ValueError(f"`params` must be an SGMParams or None, got {type(params).__name__}")
+    return params.replace(**overrides) if overrides else params
+
+
+def _border_mask(shape: tuple[int, int], params: SGMParams) -> np.ndarray:
+    """(W,) bool: columns where the full disparity range does not fit in the right image."""
+    width = shape[1]
+    x = np.arange(width)
+    return (x - params.max_disparity < 0) | (x - params.min_disparity > width - 1)
+
+
+def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None = None) -> DisparityMap:
+    t0 = time.perf_counter()
+    left_arr, right_arr = _check_pair(left, right, params)
+    key = (left_arr.shape, left_arr.dtype)
+    if memory_checked is None or key not in memory_checked:
+        _check_memory(left_arr.shape, left_arr.dtype, params)
+        if memory_checked is not None:
+            memory_checked.add(key)
+    _check_finite("left", left_arr)
+    _check_finite("right", right_arr)
+    gray_left, gray_right = to_gray_uint8(left_arr, right_arr)
+    t1 = time.perf_counter()
+
+    disparity, disparity_right, core_timings = _core().sgm_match(
+        gray_left, gray_right, cost=params.cost, min_disparity=params.min_disparity,
+        num_disparities=params.num_disparities, block_size=params.block_size, census_window=params.census_window,
+        p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.adaptive_p2,
+        uniqueness=params.uniqueness, lr_check=params.lr_check, subpixel=params.subpixel,
+        threads=params.threads)
+    t2 = time.perf_counter()
+
+    disparity = np.asarray(disparity, dtype=np.float32)
+    unknown_matcher = int(np.isnan(disparity).sum())
+    valid_before = disparity.size - unknown_matcher
+    if params.speckle_size > 0:
+        disparity = filter_speckles(disparity, max_size=params.speckle_size, max_diff=params.speckle_range)
+    valid_after_speckle = int(np.isfinite(disparity).sum())
+    filled = 0
+    if params.fill_holes:
+        disparity = fill_holes(disparity)
+        filled = int(np.isfinite(disparity).sum()) - valid_after_speckle
+    border = _border_mask(disparity.shape, params)
+    t3 = time.perf_counter()
+
+    counts = {k: v for k, v in dict(core_timings).items() if k.startswith("n_")}
+    timings = {"prepare": (t1 - t0) * 1e3}
+    timings.update({k: float(v) for k, v in dict(core_timings).items() if not k.startswith("n_")})
+    timings["postprocess"] = (t3 - t2) * 1e3
+    timings["total"] = (t3 - t0) * 1e3
+    validity = {
+        "pixels": int(disparity.size),
+        "valid": valid_after_speckle + filled,
+        "unknown_matcher": unknown_matcher,
+        "failed_lr": None if "n_failed_lr" not in counts else int(counts["n_failed_lr"]),
+        "failed_uniqueness": None if "n_failed_uniqueness" not in counts else int(counts["n_failed_uniqueness"]),
+        "speckle_removed": valid_before - valid_after_speckle,
+        "filled": filled,
+        "border": int(border.sum()) * disparity.shape[0],
+        "border_valid": int(np.isfinite(disparity[:, border]).sum()),
+    }
+    if disparity_right is not None:
+        disparity_right = np.asarray(disparity_right, dtype=np.float32)
+    return DisparityMap(disparity=disparity, disparity_right=disparity_right, params=params,
+                        timings_ms=timings, validity=validity)
+
+
+def compute_disparity(left: Any, right: Any, params: SGMParams | None = None, **overrides: Any) -> DisparityMap:
+    """Disparity of a rectified stereo pair by 8-path (or 4-path) semi-global matching.
+
+    Parameters
+    ----------
+    left, right : (H, W) or (H, W, 3) array
+        Rectified images, grey or colour BGR, dtype uint8, uint16, float32 or float64, same
+        shape and dtype. Converted once to uint8 grey (see ``to_gray_uint8``).
+    params : SGMParams, optional
+        Default ``SGMParams()``.
+    **overrides
+        Fields of ``SGMParams`` to change, e.g. ``num_disparities=128``.
+
+    Returns
+    -------
+    DisparityMap
+        ``disparity`` (H, W) float32 pixels, ``d = x_left - x_right``, NaN where unknown.
+
+    Raises
+    ------
+    StereoInputError
+        Bad images: dtype, shape, different sizes, empty, smaller than the window, NaN/inf,
+        or a disparity range wider than the image.
+    MemoryBudgetError
+        The estimated memory exceeds ``memory_limit``; raised before any large allocation.
+    ValueError
+        Bad parameters (message names the field).
+    """
+    return _match(left, right, _resolve_params(params, overrides))
+
+
+class StereoMatcher:
+    """Holds parameters for a sequence of frames; checks the memory budget once per image size.
+
+    >>> matcher = StereoMatcher(num_disparities=128)        # doctest: +SKIP
+    >>> for left, right in frames:                          # doctest: +SKIP
+    ...     dmap = matcher.compute(left, right)
+    """
+
+    def __init__(self, params: SGMParams | None = None, **overrides: Any) -> None:
+        self._params = _resolve_params(params, overrides)
+        self._memory_checked: set[tuple[tuple[int, ...], np.dtype]] = set()
+
+    @property
+    def params(self) -> SGMParams:
+        """The parameters used for every frame."""
+        return self._params
+
+    def compute(self, left: Any, right: Any) -> DisparityMap:
+        """Disparity of one rectified pair; see ``compute_disparity``."""
+        return _match(left, right, self._params, self._memory_checked)
+
+    def __repr__(self) -> str:
+        return f"StereoMatcher({self._params!r})"

@@ -1,0 +1,285 @@
+"""Parameters of the semi-global matcher: one frozen, self-checking dataclass.
+
+>>> from stereo_classic.params import SGMParams
+>>> params = SGMParams(num_disparities=64, block_size=5)
+>>> params.effective_p1, params.effective_p2
+(15, 80)
+>>> params.replace(cost="sad").effective_p1
+200
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+import os
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = [
+    "SGMParams",
+    "MEMORY_LIMIT_ENV",
+    "COSTS",
+    "MAX_BLOCK_SIZE",
+    "MAX_NUM_DISPARITIES",
+    "MAX_PENALTY",
+    "default_memory_limit",
+    "parse_bytes",
+]
+
+#: Environment variable that sets the default memory limit (bytes, or with a K/M/G/T suffix: "4G").
+MEMORY_LIMIT_ENV = "STEREO_CLASSIC_MEMORY_LIMIT"
+#: Matching costs: census transform + Hamming distance, or the paper's sum of absolute differences.
+COSTS = ("census", "sad")
+#: Largest accepted (odd) SAD window side.
+MAX_BLOCK_SIZE = 21
+#: Largest accepted disparity range; far above any real camera and image, it only keeps the int16 kernels safe.
+MAX_NUM_DISPARITIES = 4096
+#: Largest accepted P1 / P2: path costs are int16 and must not saturate on a single step.
+MAX_PENALTY = 4000
+#: Census windows whose bit string fits the 64-bit kernel (width * height - 1 <= 64 bits).
+_MAX_CENSUS_BITS = 64
+
+# Census defaults: measured best on the developers' scenes (see the README's parameter table).
+_CENSUS_P1 = 15
+_CENSUS_P2 = 80
+# SAD defaults: OpenCV's recommendation 8 * cn * block^2 and 32 * cn * block^2 with cn = 1 (we match on grey).
+_SAD_P1_PER_PIXEL = 8
+_SAD_P2_PER_PIXEL = 32
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
+def _is_real(value: Any) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+_SUFFIXES = {"": 1, "B": 1, "K": 1024, "KB": 1024, "KIB": 1024, "M": 1024**2, "MB": 1024**2, "MIB": 1024**2,
+             "G": 1024**3, "GB": 1024**3, "GIB": 1024**3, "T": 1024**4, "TB": 1024**4, "TIB": 1024**4}
+
+
+def parse_bytes(text: str, *, name: str = MEMORY_LIMIT_ENV) -> int:
+    """Parse a byte count such as ``"4000000000"``, ``"4G"`` or ``"512 MiB"`` (binary units).
+
+    Raises ``ValueError`` naming ``name`` when the text is not a positive size.
+    """
+    cleaned = str(text).strip().upper().replace(" ", "")
+    number = cleaned.rstrip("KMGTIB")
+    suffix = cleaned[len(number):]
+    try:
+        value = float(number)
+    except ValueError:
+        value = math.nan
+    if suffix not in _SUFFIXES or not math.isfinite(value) or value <= 0:
+        raise ValueError(f"`{name}` must be a positive byte count such as 4000000000 or 4G, got {text!r}")
+    return int(value * _SUFFIXES[suffix])
+
+
+def _physical_memory() -> int | None:
+    try:
+        pages = os.sysconf("SC_PHYS_PAGES")
+        page_size = os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+    if pages <= 0 or page_size <= 0:
+        return None
+    return int(pages) * int(page_size)
+
+
+def default_memory_limit() -> int:
+    """The memory limit used when ``SGMParams.memory_limit`` is None, in bytes.
+
+    ``$STEREO_CLASSIC_MEMORY_LIMIT`` when set (bytes or "4G"), else 50 % of physical RAM,
+    else (RAM unknown) 4 GiB.
+    """
+    env = os.environ.get(MEMORY_LIMIT_ENV)
+    if env is not None and env.strip():
+        return parse_bytes(env)
+    physical = _physical_memory()
+    return physical // 2 if physical else 4 * 1024**3
+
+
+@dataclass(frozen=True)
+class SGMParams:
+    """Everything that decides a disparity map, checked when built.
+
+    Parameters
+    ----------
+    min_disparity : int
+        Smallest disparity searched, pixels (may be negative). Default 0.
+    num_disparities : int
+        Number of disparities searched: ``min_disparity .. min_disparity + num_disparities - 1``.
+        Any positive integer (OpenCV needs a multiple of 16; this matcher does not). Default 64.
+    block_size : int
+        Odd side of the square SAD window, 1 .. 21 (used by ``cost="sad"``). Default 5.
+    p1, p2 : int or None
+        Smoothness penalties for a disparity change of 1 px and of more than 1 px (``p2 > p1``).
+        None uses defaults scaled to the cost: census 15 / 80 (measured best on real scenes);
+        SAD ``8 * block_size**2`` / ``32 * block_size**2`` (OpenCV's rule with one channel).
+        See ``effective_p1`` / ``effective_p2``.
+    cost : {"census", "sad"}
+        Matching cost. "census" (default, robust to exposure differences between the cameras)
+        or "sad", the paper's sum of absolute differences on a gradient-prefiltered image.
+    census_window : (int, int)
+        Census window (width, height), both odd, at most 64 comparison bits. Default (9, 7).
+    adaptive_p2 : bool
+        Divide P2 by the intensity gradient along each path (Hirschmuller 2008). Default False.
+    uniqueness : float
+        Uniqueness ratio in percent, 0 .. 100: the best cost must beat the second best (away
+        from the winner's neighbours) by this margin, else the pixel is unknown. 0 = off (default).
+    lr_check : float or None
+        Maximum left-right disparity difference in pixels; None = no left-right check. Default 1.0.
+    subpixel : bool
+        Parabola subpixel refinement. Default True.
+    speckle_size : int
+        Connected regions (of disparities within ``speckle_range``) smaller than this many
+        pixels are set unknown; 0 = off. Default 100.
+    speckle_range : float
+        Largest disparity step inside one speckle region, pixels. Default 2.0.
+    fill_holes : bool
+        Fill unknown pixels from the background side of each row, then a 3x3 median
+        (dense output, not a measurement). Default False.
+    paths : {8, 4}
+        Number of aggregation directions. Default 8.
+    threads : int or None
+        Worker threads for the kernels; None = all threads numba may use. Default None.
+    memory_limit : int or None
+        Refuse inputs whose estimated working memory exceeds this many bytes (MemoryBudgetError).
+        None: ``$STEREO_CLASSIC_MEMORY_LIMIT`` or 50 % of physical RAM.
+    """
+
+    min_disparity: int = 0
+    num_disparities: int = 64
+    block_size: int = 5
+    p1: int | None = None
+    p2: int | None = None
+    cost: str = "census"
+    census_window: tuple[int, int] = (9, 7)
+    adaptive_p2: bool = False
+    uniqueness: float = 0.0
+    lr_check: float | None = 1.0
+    subpixel: bool = True
+    speckle_size: int = 100
+    speckle_range: float = 2.0
+    fill_holes: bool = False
+    paths: int = 8
+    threads: int | None = None
+    memory_limit: int | None = None
+
+    def __post_init__(self) -> None:
+        def fail(field: str, expected: str, got: Any) -> None:
+            raise ValueError(f"`{field}` must be {expected}, got {got!r}")
+
+        def normalise(field: str, value: Any) -> None:
+            object.__setattr__(self, field, value)
+
+        # integers
+        if not _is_int(self.min_disparity):
+            fail("min_disparity", "an integer (pixels, may be negative)", self.min_disparity)
+        if abs(int(self.min_disparity)) > MAX_NUM_DISPARITIES:
+            fail("min_disparity", f"an integer between {-MAX_NUM_DISPARITIES} and {MAX_NUM_DISPARITIES}",
+                 self.min_disparity)
+        normalise("min_disparity", int(self.min_disparity))
+        if not _is_int(self.num_disparities) or not 1 <= self.num_disparities <= MAX_NUM_DISPARITIES:
+            fail("num_disparities", f"a positive integer (at most {MAX_NUM_DISPARITIES})", self.num_disparities)
+        normalise("num_disparities", int(self.num_disparities))
+        if not _is_int(self.block_size) or not 1 <= self.block_size <= MAX_BLOCK_SIZE or self.block_size % 2 == 0:
+            fail("block_size", f"an odd integer between 1 and {MAX_BLOCK_SIZE}", self.block_size)
+        normalise("block_size", int(self.block_size))
+
+        # cost
+        if not isinstance(self.cost, str) or self.cost.lower() not in COSTS:
+            fail("cost", f"one of {', '.join(map(repr, COSTS))}", self.cost)
+        normalise("cost", self.cost.lower())
+        window = self.census_window
+        if (not isinstance(window, (tuple, list)) or len(window) != 2 or not all(_is_int(v) for v in window)
+                or not all(v >= 1 and v % 2 == 1 for v in window) or window[0] * window[1] - 1 > _MAX_CENSUS_BITS):
+            fail("census_window", "(width, height) of odd positive integers with width * height - 1 <= 64, e.g. (9, 7)",
+                 window)
+        normalise("census_window", (int(window[0]), int(window[1])))
+
+        # penalties
+        for field in ("p1", "p2"):
+            value = getattr(self, field)
+            if value is not None:
+                if not _is_int(value) or not 0 <= value <= MAX_PENALTY:
+                    fail(field, f"None or an integer between 0 and {MAX_PENALTY}", value)
+                normalise(field, int(value))
+        p1, p2 = self.effective_p1, self.effective_p2
+        if p2 <= p1:
+            raise ValueError(f"`p2` must be larger than `p1`, got p1={p1} and p2={p2}"
+                             + (" (None means the default for this cost)" if self.p1 is None or self.p2 is None else ""))
+        for field in ("adaptive_p2", "subpixel", "fill_holes"):
+            value = getattr(self, field)
+            if not isinstance(value, bool):
+                fail(field, "True or False", value)
+
+        # selection and post-processing
+        if not _is_real(self.uniqueness) or not 0 <= self.uniqueness <= 100:
+            fail("uniqueness", "a ratio in percent between 0 and 100 (0 = off)", self.uniqueness)
+        normalise("uniqueness", float(self.uniqueness))
+        if self.lr_check is not None:
+            if not _is_real(self.lr_check) or not 0 <= self.lr_check < MAX_NUM_DISPARITIES:
+                fail("lr_check", "None (off) or a non-negative number of pixels", self.lr_check)
+            normalise("lr_check", float(self.lr_check))
+        if not _is_int(self.speckle_size) or self.speckle_size < 0:
+            fail("speckle_size", "a non-negative integer number of pixels (0 = off)", self.speckle_size)
+        normalise("speckle_size", int(self.speckle_size))
+        if not _is_real(self.speckle_range) or not 0 <= self.speckle_range <= MAX_NUM_DISPARITIES:
+            fail("speckle_range", "a non-negative number of pixels", self.speckle_range)
+        normalise("speckle_range", float(self.speckle_range))
+
+        # execution
+        if not _is_int(self.paths) or self.paths not in (4, 8):
+            fail("paths", "8 or 4", self.paths)
+        normalise("paths", int(self.paths))
+        if self.threads is not None:
+            if not _is_int(self.threads) or not 1 <= self.threads <= 1024:
+                fail("threads", "None (all) or a positive integer", self.threads)
+            normalise("threads", int(self.threads))
+        if self.memory_limit is not None:
+            if not _is_int(self.memory_limit) or self.memory_limit <= 0:
+                fail("memory_limit", "None (default) or a positive number of bytes", self.memory_limit)
+            normalise("memory_limit", int(self.memory_limit))
+
+    # -- derived values ---------------------------------------------------------------------
+    @property
+    def max_disparity(self) -> int:
+        """Largest disparity searched, pixels: ``min_disparity + num_disparities - 1``."""
+        return self.min_disparity + self.num_disparities - 1
+
+    @property
+    def effective_p1(self) -> int:
+        """P1 actually used: ``p1``, or the default for ``cost`` when ``p1`` is None."""
+        if self.p1 is not None:
+            return self.p1
+        return _CENSUS_P1 if self.cost == "census" else _SAD_P1_PER_PIXEL * self.block_size**2
+
+    @property
+    def effective_p2(self) -> int:
+        """P2 actually used: ``p2``, or the default for ``cost`` when ``p2`` is None."""
+        if self.p2 is not None:
+            return self.p2
+        return _CENSUS_P2 if self.cost == "census" else _SAD_P2_PER_PIXEL * self.block_size**2
+
+    @property
+    def effective_memory_limit(self) -> int:
+        """Memory limit actually applied, bytes (see ``memory_limit``)."""
+        return self.memory_limit if self.memory_limit is not None else default_memory_limit()
+
+    def replace(self, **overrides: Any) -> SGMParams:
+        """A copy with some fields changed (checked again); unknown names raise ValueError."""
+        unknown = sorted(set(overrides) - {f.name for f in dataclasses.fields(self)})
+        if unknown:
+            names = ", ".join(f.name for f in dataclasses.fields(self))
+            raise ValueError(f"unknown SGM parameter(s) {', '.join(map(repr, unknown))}; expected some of: {names}")
+        return dataclasses.replace(self, **overrides)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-friendly dict of the fields (``census_window`` as a list)."""
+        out = dataclasses.asdict(self)
+        out["census_window"] = list(self.census_window)
+        return out

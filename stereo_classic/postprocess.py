@@ -1,0 +1,109 @@
+"""Post-processing of float32 disparity maps (NaN = unknown): speckle filter and optional hole filling.
+
+Both functions take and return ``(H, W) float32`` disparity in pixels with NaN where unknown, and
+never modify their input.
+
+>>> import numpy as np
+>>> d = np.full((20, 20), 10.0, np.float32); d[5, 5] = 30.0
+>>> int(np.isnan(filter_speckles(d, max_size=4, max_diff=1.0)).sum())
+1
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+__all__ = ["filter_speckles", "fill_holes"]
+
+# int16 value that marks unknown pixels for cv2.filterSpeckles (it skips pixels equal to newVal).
+_UNKNOWN_I16 = np.iinfo(np.int16).min
+# Largest |scaled disparity| we put into int16 (leaves room below the sentinel).
+_I16_LIMIT = 32000.0
+
+
+def _check_disparity(disparity: np.ndarray, name: str = "disparity") -> np.ndarray:
+    arr = np.asarray(disparity)
+    if arr.ndim != 2 or arr.dtype != np.float32:
+        raise ValueError(f"`{name}` must be a (H, W) float32 array, got shape {arr.shape} dtype {arr.dtype}")
+    return arr
+
+
+def filter_speckles(disparity: np.ndarray, *, max_size: int, max_diff: float) -> np.ndarray:
+    """Set small connected regions of similar disparity unknown (NaN).
+
+    Uses ``cv2.filterSpeckles`` on a scaled int16 copy (scale 16, i.e. 1/16 px resolution, or
+    less where the disparity magnitude needs it).
+
+    Parameters
+    ----------
+    disparity : (H, W) float32
+        Pixels, NaN where unknown.
+    max_size : int
+        Regions with fewer pixels than this are removed; 0 returns a copy unchanged.
+    max_diff : float
+        Largest disparity difference, pixels, between 4-neighbours of one region.
+
+    Returns
+    -------
+    (H, W) float32
+        A new map; removed pixels are NaN.
+    """
+    disp = _check_disparity(disparity)
+    if max_size < 0 or not np.isfinite(max_diff) or max_diff < 0:
+        raise ValueError(f"`max_size` and `max_diff` must be non-negative, got {max_size!r} and {max_diff!r}")
+    out = disp.copy()
+    valid = np.isfinite(disp)
+    if max_size == 0 or not valid.any():
+        return out
+    magnitude = float(np.abs(disp[valid]).max())
+    scale = 16.0 if magnitude * 16.0 <= _I16_LIMIT else _I16_LIMIT / magnitude
+    scaled = np.full(disp.shape, _UNKNOWN_I16, np.int16)
+    scaled[valid] = np.rint(disp[valid] * scale).astype(np.int16)
+    max_diff_scaled = int(round(max_diff * scale))
+    cv2.filterSpeckles(scaled, _UNKNOWN_I16, int(max_size), max_diff_scaled)
+    out[scaled == _UNKNOWN_I16] = np.nan
+    return out
+
+
+def fill_holes(disparity: np.ndarray) -> np.ndarray:
+    """Fill unknown pixels from the background side of their row, then smooth the filled pixels.
+
+    Each unknown pixel takes the smaller (farther, background) of the nearest known disparities to
+    its left and right in the same row (or the one that exists). The filled pixels then take the
+    3x3 median of the filled map; known pixels keep their value. Rows with no known pixel stay NaN.
+    This is for users who need a dense map: the filled values are guesses, not measurements.
+
+    Parameters
+    ----------
+    disparity : (H, W) float32
+        Pixels, NaN where unknown.
+
+    Returns
+    -------
+    (H, W) float32
+        A new map.
+    """
+    disp = _check_disparity(disparity)
+    valid = np.isfinite(disp)
+    if valid.all() or not valid.any():
+        return disp.copy()
+    height, width = disp.shape
+    columns = np.broadcast_to(np.arange(width), disp.shape)
+    left_idx = np.maximum.accumulate(np.where(valid, columns, -1), axis=1)
+    right_idx = np.minimum.accumulate(np.where(valid, columns, width)[:, ::-1], axis=1)[:, ::-1]
+    safe = np.where(valid, disp, np.inf)
+    left_val = np.take_along_axis(safe, np.clip(left_idx, 0, width - 1), axis=1)
+    right_val = np.take_along_axis(safe, np.clip(right_idx, 0, width - 1), axis=1)
+    left_val[left_idx < 0] = np.inf
+    right_val[right_idx >= width] = np.inf
+    background = np.minimum(left_val, right_val)
+    filled = np.where(valid, disp, background).astype(np.float32)
+    still_unknown = ~np.isfinite(filled)
+    filled[still_unknown] = 0.0
+    median = cv2.medianBlur(filled, 3)
+    holes = ~valid & ~still_unknown
+    out = disp.copy()
+    out[holes] = median[holes]
+    out[still_unknown] = np.nan
+    return out
