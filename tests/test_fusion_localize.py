@@ -18,7 +18,7 @@ from stereo_classic.fusion import (
     localize,
     ransac_1d,
 )
-from tests._fusion_scenes import disparity_of, make_rig, planted_scene
+from tests.test_fusion_scenes import disparity_of, make_rig, planted_scene
 
 
 def _noisy(gt, rng, sigma=0.25, outliers=0.05, holes=0.05):
