@@ -1,0 +1,568 @@
+"""Public matcher API: SGMParams, compute_disparity, StereoMatcher, DisparityMap, memory budget, post-processing."""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib.util
+import re
+import types
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from stereo_classic import matcher as matcher_mod
+from stereo_classic.matcher import (
+    DisparityMap,
+    MemoryBudgetError,
+    StereoInputError,
+    StereoMatcher,
+    compute_disparity,
+    estimate_memory,
+    to_gray_uint8,
+)
+from stereo_classic.params import MEMORY_LIMIT_ENV, SGMParams, default_memory_limit, parse_bytes
+from stereo_classic.postprocess import fill_holes, filter_speckles
+
+HAVE_CORE = importlib.util.find_spec("stereo_classic._sgm_core") is not None
+needs_core = pytest.mark.skipif(not HAVE_CORE, reason="stereo_classic._sgm_core (sgm-core's kernels) not present yet")
+
+
+# --------------------------------------------------------------------------------------------------
+# A slow numpy stand-in for the kernels, used only while stereo_classic._sgm_core is absent so that
+# the API plumbing can be tested; accuracy tests need the real kernels (needs_core).
+# --------------------------------------------------------------------------------------------------
+def _fallback_match(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
+                    paths, adaptive_p2, uniqueness, lr_check, subpixel, threads):
+    h, w = left.shape
+    big = np.int32(1 << 30)
+    vol = np.full((h, w, num_disparities), big, np.int32)
+    lf, rf = left.astype(np.float32), right.astype(np.float32)
+    for k in range(num_disparities):
+        d = min_disparity + k
+        diff = np.full((h, w), 255.0, np.float32)
+        if 0 <= d < w:
+            diff[:, d:] = np.abs(lf[:, d:] - rf[:, : w - d])
+        elif -w < d < 0:
+            diff[:, : w + d] = np.abs(lf[:, : w + d] - rf[:, -d:])
+        box = cv2.boxFilter(diff, -1, (block_size, block_size), normalize=False, borderType=cv2.BORDER_REFLECT)
+        x = np.arange(w)
+        vol[:, :, k] = np.where(((x - d >= 0) & (x - d < w))[None, :], np.rint(box).astype(np.int32), big)
+    idx = np.argmin(vol, axis=2)
+    disp = (idx + min_disparity).astype(np.float32)
+    disp[np.take_along_axis(vol, idx[..., None], 2)[..., 0] >= big] = np.nan
+    right_disp = None
+    if lr_check is not None:
+        rv = np.full_like(vol, big)
+        for k in range(num_disparities):
+            d = min_disparity + k
+            for xr in range(w):
+                if 0 <= xr + d < w:
+                    rv[:, xr, k] = vol[:, xr + d, k]
+        right_disp = (np.argmin(rv, axis=2) + min_disparity).astype(np.float32)
+        xr = np.rint(np.arange(w)[None, :] - np.nan_to_num(disp, nan=0.0)).astype(int)
+        dr = np.take_along_axis(right_disp, np.clip(xr, 0, w - 1), 1)
+        disp[(xr < 0) | (xr >= w) | (np.abs(dr - disp) > lr_check)] = np.nan
+    return disp, right_disp, {"cost": 0.0, "aggregate": 0.0, "select": 0.0}
+
+
+def _fallback_memory(height, width, num_disparities, *, paths=8, lr_check=True):
+    return 2 * height * width * num_disparities + 16 * width * num_disparities
+
+
+@pytest.fixture(autouse=True)
+def _kernels(monkeypatch):
+    if not HAVE_CORE:
+        fake = types.SimpleNamespace(sgm_match=_fallback_match, memory_bytes=_fallback_memory)
+        monkeypatch.setattr(matcher_mod, "_core", lambda: fake)
+
+
+# --------------------------------------------------------------------------------------------------
+# synthetic pairs
+# --------------------------------------------------------------------------------------------------
+def _texture(shape, seed=0, smooth=1.0):
+    rng = np.random.default_rng(seed)
+    img = rng.uniform(0, 255, shape).astype(np.float32)
+    if smooth > 0:
+        img = cv2.GaussianBlur(img, (0, 0), smooth)
+        img = (img - img.min()) / max(1e-6, float(img.max() - img.min())) * 255
+    return img
+
+
+def _warp_right(left_f, disparity):
+    """Right image such that right(x - d(x, y)) = left(x, y) for a smooth d, by sampling left at x + d_r."""
+    h, w = left_f.shape
+    # right(xr) = left(xr + d) with d evaluated at xr + d; iterate the fixed point (d varies slowly)
+    xs = np.tile(np.arange(w, dtype=np.float32), (h, 1))
+    ys = np.repeat(np.arange(h, dtype=np.float32)[:, None], w, 1)
+    xl = xs.copy()
+    for _ in range(20):
+        d = cv2.remap(disparity.astype(np.float32), xl, ys, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        xl = xs + d
+    return cv2.remap(left_f, xl, ys, cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+
+
+def _shift_pair(shape=(48, 96), shift=7, seed=0):
+    right = np.random.default_rng(seed).integers(0, 256, shape, dtype=np.uint8)
+    left = np.roll(right, shift, axis=1)
+    return left, right
+
+
+# --------------------------------------------------------------------------------------------------
+# SGMParams
+# --------------------------------------------------------------------------------------------------
+class TestParams:
+    def test_defaults_and_effective_penalties(self):
+        p = SGMParams()
+        assert (p.cost, p.num_disparities, p.block_size, p.paths) == ("census", 64, 5, 8)
+        assert (p.effective_p1, p.effective_p2) == (15, 80)
+        sad = p.replace(cost="sad", block_size=3)
+        assert (sad.effective_p1, sad.effective_p2) == (8 * 9, 32 * 9)
+        assert p.replace(p1=3, p2=30).effective_p2 == 30
+        assert p.max_disparity == 63
+        assert SGMParams(min_disparity=-10, num_disparities=20).max_disparity == 9
+
+    def test_frozen_replace_to_dict(self):
+        p = SGMParams(num_disparities=100)  # any positive count, not only multiples of 16
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            p.num_disparities = 3  # type: ignore[misc]
+        q = p.replace(uniqueness=10)
+        assert q.uniqueness == 10.0 and p.uniqueness == 0.0
+        d = q.to_dict()
+        assert d["num_disparities"] == 100 and d["census_window"] == [9, 7]
+        assert SGMParams(**{**d, "census_window": tuple(d["census_window"])}) == q
+        with pytest.raises(ValueError, match="unknown SGM parameter.*'num_disp'"):
+            p.replace(num_disp=3)
+
+    def test_normalises_numpy_scalars(self):
+        p = SGMParams(num_disparities=np.int64(32), uniqueness=np.float32(5), census_window=[7, 7])
+        assert type(p.num_disparities) is int and p.census_window == (7, 7) and p.uniqueness == 5.0
+
+    @pytest.mark.parametrize("field, value", [
+        ("min_disparity", 1.5), ("min_disparity", "0"), ("min_disparity", 10**6),
+        ("num_disparities", 0), ("num_disparities", -16), ("num_disparities", 16.0), ("num_disparities", True),
+        ("num_disparities", 10**6),
+        ("block_size", 4), ("block_size", 0), ("block_size", 23), ("block_size", 5.0),
+        ("p1", -1), ("p1", 2.5), ("p2", 10**6),
+        ("cost", "ssd"), ("cost", None),
+        ("census_window", (9, 9)), ("census_window", (8, 7)), ("census_window", 9), ("census_window", (9, 7, 1)),
+        ("adaptive_p2", 1), ("subpixel", "yes"), ("fill_holes", None),
+        ("uniqueness", -1), ("uniqueness", 101), ("uniqueness", float("nan")),
+        ("lr_check", -1), ("lr_check", float("inf")), ("lr_check", "1"),
+        ("speckle_size", -1), ("speckle_size", 2.5), ("speckle_range", -0.5), ("speckle_range", float("nan")),
+        ("paths", 16), ("paths", 2), ("threads", 0), ("threads", 1.5),
+        ("memory_limit", 0), ("memory_limit", -5), ("memory_limit", 1.5e9),
+    ])
+    def test_bad_field_names_field(self, field, value):
+        with pytest.raises(ValueError, match=f"`{field}`"):
+            SGMParams(**{field: value})
+
+    @pytest.mark.parametrize("kwargs", [dict(p1=80, p2=80), dict(p1=100), dict(cost="sad", p2=10)])
+    def test_p2_must_exceed_p1(self, kwargs):
+        with pytest.raises(ValueError, match="`p2` must be larger than `p1`"):
+            SGMParams(**kwargs)
+
+    def test_memory_limit_from_env(self, monkeypatch):
+        monkeypatch.setenv(MEMORY_LIMIT_ENV, "2G")
+        assert SGMParams().effective_memory_limit == 2 * 1024**3
+        assert SGMParams(memory_limit=1234).effective_memory_limit == 1234
+        monkeypatch.setenv(MEMORY_LIMIT_ENV, "lots")
+        with pytest.raises(ValueError, match=MEMORY_LIMIT_ENV):
+            default_memory_limit()
+        monkeypatch.delenv(MEMORY_LIMIT_ENV)
+        assert default_memory_limit() > 100 * 1024**2  # half of this machine's RAM
+
+    @pytest.mark.parametrize("text, expected", [("4096", 4096), ("1k", 1024), ("1.5 GiB", 3 * 2**29), ("2MB", 2 * 2**20)])
+    def test_parse_bytes(self, text, expected):
+        assert parse_bytes(text) == expected
+
+    @pytest.mark.parametrize("text", ["", "-1G", "0", "1X", "G", "nan"])
+    def test_parse_bytes_rejects(self, text):
+        with pytest.raises(ValueError, match="byte count"):
+            parse_bytes(text)
+
+
+# --------------------------------------------------------------------------------------------------
+# compute_disparity: smoke, dtypes, synthetic accuracy
+# --------------------------------------------------------------------------------------------------
+class TestComputeDisparity:
+    def test_smoke_constant_shift(self):
+        left, right = _shift_pair(shift=7)
+        dmap = compute_disparity(left, right, num_disparities=16)
+        assert isinstance(dmap, DisparityMap)
+        assert dmap.disparity.shape == left.shape and dmap.disparity.dtype == np.float32
+        assert not np.isinf(dmap.disparity).any()
+        interior = dmap.disparity[6:-6, 20:-6]
+        assert np.isfinite(interior).mean() > 0.95
+        np.testing.assert_allclose(interior[np.isfinite(interior)], 7.0, atol=0.05)
+        assert set(dmap.timings_ms) >= {"prepare", "postprocess", "total"}
+        assert dmap.timings_ms["total"] >= dmap.timings_ms["prepare"]
+        v = dmap.validity
+        assert v["pixels"] == left.size and v["valid"] == np.isfinite(dmap.disparity).sum()
+        assert 0.0 < dmap.valid_fraction <= 1.0 and dmap.valid_fraction == pytest.approx(v["valid"] / left.size)
+        assert v["border"] == 15 * left.shape[0]  # columns 0..14 cannot hold the full range 0..15
+        assert v["unknown_matcher"] + v["speckle_removed"] + v["valid"] - v["filled"] == left.size
+
+    def test_params_object_and_overrides(self):
+        left, right = _shift_pair()
+        params = SGMParams(num_disparities=16, lr_check=None)
+        dmap = compute_disparity(left, right, params, speckle_size=0)
+        assert dmap.params == params.replace(speckle_size=0)
+        assert dmap.disparity_right is None
+        with_lr = compute_disparity(left, right, params.replace(lr_check=1.0))
+        assert with_lr.disparity_right is not None and with_lr.disparity_right.shape == left.shape
+
+    @pytest.mark.parametrize("dtype, scale", [(np.uint8, 1), (np.uint16, 257), (np.uint16, 16), (np.float32, 1 / 255),
+                                              (np.float64, 1.0), (np.float32, 1000.0)])
+    @pytest.mark.parametrize("colour", [False, True])
+    def test_dtypes_and_colour(self, dtype, scale, colour):
+        left, right = _shift_pair(shift=5, seed=3)
+        if colour:
+            left, right = (np.dstack([im, im, im]) for im in (left, right))
+        args = [(im.astype(np.float64) * scale).astype(dtype) for im in (left, right)]
+        dmap = compute_disparity(*args, num_disparities=16)
+        interior = dmap.disparity[6:-6, 20:-6]
+        assert np.isfinite(interior).mean() > 0.9
+        assert np.nanmedian(np.abs(interior - 5.0)) < 0.05
+
+    def test_grey_conversion_shares_one_mapping(self):
+        rng = np.random.default_rng(1)
+        a = rng.uniform(100, 1000, (20, 30))
+        ga, gb = to_gray_uint8(a, a * 0.5 + 100)  # darker right camera must stay darker
+        assert ga.dtype == np.uint8 and ga.flags.c_contiguous and gb.shape == (20, 30)
+        assert ga.mean() > gb.mean() + 30  # separate stretching would make both means ~128
+        # uint8 grey is passed through without a copy
+        g = rng.integers(0, 256, (10, 12), dtype=np.uint8)
+        assert to_gray_uint8(g, g)[0] is g
+        # colour uint8 uses OpenCV's BGR weights
+        c = rng.integers(0, 256, (10, 12, 3), dtype=np.uint8)
+        np.testing.assert_array_equal(to_gray_uint8(c, c)[0], cv2.cvtColor(c, cv2.COLOR_BGR2GRAY))
+        # extreme but finite floats and constant images do not overflow or divide by zero
+        huge = np.full((8, 8), 1e308)
+        huge[0, 0] = -1e308
+        assert to_gray_uint8(huge, huge)[0].dtype == np.uint8
+        z = np.zeros((8, 8), np.float32)
+        assert not to_gray_uint8(z, z)[0].any()
+
+    def test_stereo_matcher_reuses_checks(self, monkeypatch):
+        left, right = _shift_pair()
+        m = StereoMatcher(num_disparities=16)
+        assert m.params.num_disparities == 16 and "num_disparities=16" in repr(m)
+        first = m.compute(left, right)
+        np.testing.assert_array_equal(first.disparity, compute_disparity(left, right, num_disparities=16).disparity)
+        calls = []
+        monkeypatch.setattr(matcher_mod, "_check_memory", lambda *a: calls.append(a))
+        second = m.compute(left, right)
+        assert calls == []  # same size: memory already checked
+        np.testing.assert_array_equal(first.disparity, second.disparity)
+        m.compute(left[:40], right[:40])
+        assert len(calls) == 1
+
+    def test_fill_holes_option_makes_map_denser(self):
+        left, right = _shift_pair(shift=9)
+        sparse = compute_disparity(left, right, num_disparities=16, uniqueness=5)
+        dense = compute_disparity(left, right, num_disparities=16, uniqueness=5, fill_holes=True)
+        assert dense.validity["filled"] > 0
+        assert dense.validity["valid"] == sparse.validity["valid"] + dense.validity["filled"]
+        assert sparse.validity["filled"] == 0
+
+
+@needs_core
+class TestSyntheticAccuracy:
+    """Known-disparity pairs through the public API with the real kernels."""
+
+    @pytest.mark.parametrize("cost", ["census", "sad"])
+    @pytest.mark.parametrize("min_disparity, shift", [(0, 11), (-8, -5), (4, 20)])
+    def test_constant_disparity_exact(self, cost, min_disparity, shift):
+        left, right = _shift_pair(shape=(60, 120), shift=shift, seed=5)
+        dmap = compute_disparity(left, right, min_disparity=min_disparity, num_disparities=32, cost=cost)
+        lo = max(0, min_disparity + 31) + 8
+        interior = dmap.disparity[8:-8, lo:-8 - max(0, -min_disparity)]
+        assert np.isfinite(interior).mean() > 0.98
+        assert np.nanmax(np.abs(interior - shift)) < 0.05
+
+    def test_slanted_plane_subpixel(self):
+        h, w = 80, 160
+        left = _texture((h, w), seed=2, smooth=1.2)
+        xs = np.arange(w, dtype=np.float32)[None, :].repeat(h, 0)
+        ys = np.arange(h, dtype=np.float32)[:, None].repeat(w, 1)
+        truth = (8.0 + 0.04 * xs + 0.03 * ys).astype(np.float32)  # 8 .. 16.7 px
+        right = _warp_right(left, truth)
+        dmap = compute_disparity(np.rint(left).astype(np.uint8), np.rint(right).astype(np.uint8),
+                                 num_disparities=24, subpixel=True)
+        sl = np.s_[10:-10, 30:-10]
+        err = np.abs(dmap.disparity[sl] - truth[sl])
+        assert np.isfinite(err).mean() > 0.95
+        assert np.nanmean(err) < 0.1
+        whole = compute_disparity(np.rint(left).astype(np.uint8), np.rint(right).astype(np.uint8),
+                                  num_disparities=24, subpixel=False)
+        assert np.nanmean(np.abs(whole.disparity[sl] - truth[sl])) > np.nanmean(err)  # subpixel helps
+
+    def test_step(self):
+        h, w = 60, 140
+        left = _texture((h, w), seed=4, smooth=0.8)
+        truth = np.where(np.arange(w)[None, :] < 70, 6.0, 14.0).astype(np.float32).repeat(h, 0)
+        right = _warp_right(left, truth)
+        dmap = compute_disparity(np.rint(left).astype(np.uint8), np.rint(right).astype(np.uint8), num_disparities=16)
+        for cols, value in ((np.s_[24:60], 6.0), (np.s_[84:-8], 14.0)):
+            part = dmap.disparity[8:-8, cols]
+            assert np.isfinite(part).mean() > 0.95
+            assert np.nanmedian(np.abs(part - value)) < 0.1
+            assert np.mean(np.abs(part - value) < 1.0) > 0.95
+
+
+# --------------------------------------------------------------------------------------------------
+# error paths
+# --------------------------------------------------------------------------------------------------
+class TestErrors:
+    @pytest.fixture
+    def pair(self):
+        return _shift_pair()
+
+    def test_size_mismatch_names_both_shapes(self, pair):
+        left, right = pair
+        with pytest.raises(StereoInputError, match=re.escape("left (48, 96) and right (48, 90)")):
+            compute_disparity(left, right[:, :90], num_disparities=16)
+
+    def test_dtype_mismatch(self, pair):
+        left, right = pair
+        with pytest.raises(StereoInputError, match="same dtype"):
+            compute_disparity(left, right.astype(np.uint16), num_disparities=16)
+
+    @pytest.mark.parametrize("bad, pattern", [
+        (np.zeros((0, 10), np.uint8), "must not be empty"),
+        (np.zeros((10, 0, 3), np.uint8), "must not be empty"),
+        (np.zeros((48, 96, 4), np.uint8), r"\(H, W, 3\), got shape \(48, 96, 4\)"),
+        (np.zeros((2, 48, 96, 3), np.uint8), "got shape"),
+        (np.zeros(96, np.uint8), "got shape"),
+        (np.zeros((48, 96), np.int32), "dtype uint8, uint16, float32 or float64, got int32"),
+        (np.zeros((48, 96), bool), "got bool"),
+        (np.zeros((48, 96), np.float16), "got float16"),
+        ("left.png", "read files with"),
+        (None, "image array"),
+        ([["a"]], "got <U1"),
+    ])
+    def test_bad_left_image(self, pair, bad, pattern):
+        with pytest.raises(StereoInputError, match=pattern):
+            compute_disparity(bad, pair[1], num_disparities=16)
+
+    @pytest.mark.parametrize("which", ["left", "right"])
+    @pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+    @pytest.mark.parametrize("dtype", [np.float32, np.float64])
+    def test_non_finite(self, pair, which, value, dtype):
+        left, right = (im.astype(dtype) for im in pair)
+        (left if which == "left" else right)[3, 4] = value
+        with pytest.raises(StereoInputError, match=f"`{which}` must hold finite values"):
+            compute_disparity(left, right, num_disparities=16)
+
+    @pytest.mark.parametrize("shape, kwargs", [
+        ((4, 40), dict(num_disparities=8, cost="sad", block_size=5)),
+        ((6, 40), dict(num_disparities=8, census_window=(9, 7))),
+        ((20, 8), dict(num_disparities=4, census_window=(9, 7))),
+    ])
+    def test_too_small(self, shape, kwargs):
+        img = np.zeros(shape, np.uint8)
+        with pytest.raises(StereoInputError, match="images must be at least"):
+            compute_disparity(img, img, **kwargs)
+
+    def test_range_wider_than_image(self, pair):
+        left, right = pair
+        with pytest.raises(StereoInputError, match=r"`num_disparities` \(128\) must not be larger than the image width \(96\)"):
+            compute_disparity(left, right, num_disparities=128)
+        with pytest.raises(StereoInputError, match=r"disparity range .*\(40\.\.103\)"):
+            compute_disparity(left, right, min_disparity=40, num_disparities=64)
+        with pytest.raises(StereoInputError, match="disparity range"):
+            compute_disparity(left, right, min_disparity=-96, num_disparities=16)
+
+    @pytest.mark.parametrize("kwargs, field", [(dict(num_disparities=0), "num_disparities"),
+                                               (dict(block_size=4), "block_size"),
+                                               (dict(num_disparities=-16), "num_disparities")])
+    def test_bad_params_through_overrides(self, pair, kwargs, field):
+        with pytest.raises(ValueError, match=f"`{field}`"):
+            compute_disparity(*pair, **kwargs)
+
+    def test_params_wrong_type(self, pair):
+        with pytest.raises(ValueError, match="`params` must be an SGMParams"):
+            compute_disparity(*pair, {"num_disparities": 16})
+        with pytest.raises(ValueError, match="unknown SGM parameter"):
+            StereoMatcher(ndisp=16)
+
+    def test_memory_budget_refused_before_allocating(self, pair, monkeypatch):
+        def boom(*args, **kwargs):
+            raise AssertionError("allocated before the memory check")
+
+        monkeypatch.setattr(matcher_mod, "to_gray_uint8", boom)
+        need = estimate_memory(pair[0].shape, SGMParams(num_disparities=16))
+        with pytest.raises(MemoryBudgetError, match=r"needs about 0\.00 GiB .*num_disparities.*downscale"):
+            compute_disparity(*pair, num_disparities=16, memory_limit=need - 1)
+        monkeypatch.setenv(MEMORY_LIMIT_ENV, str(need - 1))
+        with pytest.raises(MemoryBudgetError):
+            compute_disparity(*pair, num_disparities=16)
+        assert issubclass(MemoryBudgetError, ValueError) and issubclass(StereoInputError, ValueError)
+
+    def test_memory_budget_large_image_message(self):
+        # A 8K x 4K pair with 1024 disparities: refused from the shape alone, nothing allocated.
+        big = np.lib.stride_tricks.as_strided(np.zeros(1, np.uint8), shape=(4320, 7680), strides=(0, 0))
+        with pytest.raises(MemoryBudgetError, match=r"7680 x 4320 px with num_disparities=1024 needs about \d+\.\d\d GiB"):
+            compute_disparity(big, big, num_disparities=1024, memory_limit=2 * 1024**3)
+
+
+# --------------------------------------------------------------------------------------------------
+# estimate_memory, DisparityMap
+# --------------------------------------------------------------------------------------------------
+class TestEstimateMemory:
+    def test_scales_with_range_and_options(self):
+        base = estimate_memory((375, 1242), SGMParams(num_disparities=64))
+        double = estimate_memory((375, 1242), SGMParams(num_disparities=128))
+        assert 375 * 1242 * 64 * 2 <= base < double
+        assert estimate_memory((375, 1242, 3), SGMParams(num_disparities=64)) == base
+        assert estimate_memory((375, 1242), SGMParams(num_disparities=64, fill_holes=True)) > base
+        assert estimate_memory((375, 1242), SGMParams(num_disparities=64), dtype=np.float32) > base
+        assert estimate_memory((375, 1242)) == base  # default params: 64 disparities
+
+    @pytest.mark.parametrize("shape", [(10,), "10x10", (10, -1), (1.5, 2)])
+    def test_bad_shape(self, shape):
+        with pytest.raises(ValueError, match="`image_shape`"):
+            estimate_memory(shape, SGMParams())
+
+    def test_bad_params(self):
+        with pytest.raises(ValueError, match="`params`"):
+            estimate_memory((10, 10), {"num_disparities": 16})
+
+
+class TestDisparityMap:
+    def _ok(self, **kw):
+        d = np.zeros((4, 5), np.float32)
+        d[0, 0] = np.nan
+        args = dict(disparity=d, disparity_right=None, params=SGMParams(), timings_ms={"total": 1.0},
+                    validity={"valid": 19, "pixels": 20})
+        args.update(kw)
+        return DisparityMap(**args)
+
+    def test_valid(self):
+        m = self._ok()
+        assert m.valid_fraction == pytest.approx(0.95) and m.shape == (4, 5)
+        assert m.valid_mask.sum() == 19
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            m.params = SGMParams()  # type: ignore[misc]
+
+    @pytest.mark.parametrize("kw, pattern", [
+        (dict(disparity=np.zeros((4, 5), np.float64)), "`disparity` must be a \\(H, W\\) float32"),
+        (dict(disparity=np.zeros((4, 5, 1), np.float32)), "`disparity` must be"),
+        (dict(disparity=np.full((4, 5), np.inf, np.float32)), "got inf"),
+        (dict(disparity_right=np.zeros((4, 6), np.float32)), "`disparity_right`"),
+        (dict(params={"num_disparities": 16}), "`params`"),
+        (dict(timings_ms={"total": -1.0}), "`timings_ms`"),
+        (dict(timings_ms={"total": float("nan")}), "`timings_ms`"),
+        (dict(validity={"valid": -1}), "`validity`"),
+        (dict(validity={"valid": 20}), "does not describe"),
+    ])
+    def test_invalid(self, kw, pattern):
+        with pytest.raises(ValueError, match=pattern):
+            self._ok(**kw)
+
+
+# --------------------------------------------------------------------------------------------------
+# post-processing
+# --------------------------------------------------------------------------------------------------
+class TestPostprocess:
+    def test_speckles_removed_large_regions_kept(self):
+        d = np.full((30, 30), 10.0, np.float32)
+        d[5:7, 5:7] = 20.0  # 4-pixel speckle
+        d[15:25, 15:25] = 30.0  # 100-pixel region
+        d[0, :] = np.nan
+        out = filter_speckles(d, max_size=10, max_diff=1.0)
+        assert np.isnan(out[5:7, 5:7]).all() and np.isfinite(out[15:25, 15:25]).all()
+        assert np.isnan(out).sum() == 4 + 30
+        assert np.isnan(d).sum() == 30  # input untouched
+        # a range wider than the jump merges the speckle with its surroundings
+        d2 = d.copy()
+        d2[5:7, 5:7] = 10.5
+        assert np.isnan(filter_speckles(d2, max_size=10, max_diff=1.0)).sum() == 30
+        np.testing.assert_array_equal(filter_speckles(d, max_size=0, max_diff=1.0), d)
+
+    def test_speckles_subpixel_range_and_large_disparity(self):
+        d = np.full((20, 20), 3000.0, np.float32)  # d * 16 would overflow int16: scaled down instead
+        d[3, 3] = 3010.0
+        out = filter_speckles(d, max_size=5, max_diff=2.0)
+        assert np.isnan(out).sum() == 1 and np.isnan(out[3, 3])
+        ramp = np.tile(np.arange(20, dtype=np.float32) * 0.25, (20, 1))  # steps of 0.25 px: one region
+        assert not np.isnan(filter_speckles(ramp, max_size=50, max_diff=0.3)).any()
+        assert np.isnan(filter_speckles(ramp, max_size=50, max_diff=0.2)).all()
+
+    def test_fill_holes_background(self):
+        d = np.array([[5, np.nan, np.nan, 9, np.nan], [np.nan] * 5, [1, 2, 3, 4, 5]], np.float32)
+        out = fill_holes(d)
+        assert np.isnan(out[1]).all()  # nothing known in the row
+        np.testing.assert_array_equal(out[2], d[2])
+        assert np.isfinite(out[0]).all() and out[0, 0] == 5 and out[0, 3] == 9
+        assert np.isnan(d[0, 1])  # input untouched
+        wide = np.full((9, 20), 20.0, np.float32)
+        wide[:, 12:] = 4.0
+        wide[:, 8:12] = np.nan  # hole between a near (20) and a far (4) surface: background is 4
+        np.testing.assert_array_equal(fill_holes(wide)[2:-2, 8:12], 4.0)
+
+    @pytest.mark.parametrize("func", [lambda d: filter_speckles(d, max_size=1, max_diff=1), fill_holes])
+    def test_rejects_wrong_dtype(self, func):
+        with pytest.raises(ValueError, match="`disparity` must be a \\(H, W\\) float32"):
+            func(np.zeros((3, 3)))
+
+
+# --------------------------------------------------------------------------------------------------
+# property tests: a well-formed map or a documented error naming the parameter
+# --------------------------------------------------------------------------------------------------
+_DTYPES = st.sampled_from([np.uint8, np.uint16, np.float32, np.float64, np.int16, np.bool_])
+
+
+@st.composite
+def _pairs(draw):
+    h = draw(st.integers(0, 24))
+    w = draw(st.integers(0, 48))
+    channels = draw(st.sampled_from([None, 1, 3, 4]))
+    dtype = draw(_DTYPES)
+    seed = draw(st.integers(0, 2**16))
+    rng = np.random.default_rng(seed)
+    shape = (h, w) if channels is None else (h, w, channels)
+    scale = draw(st.sampled_from([1.0, 255.0, 65535.0, 1e30]))
+    if np.dtype(dtype).kind in "iu":
+        scale = min(scale, float(np.iinfo(dtype).max))
+    left = (rng.uniform(0, 1, shape) * scale).astype(dtype)
+    right = np.roll(left, draw(st.integers(0, 6)), axis=1) if w else left.copy()
+    if draw(st.booleans()) and right.size and dtype in (np.float32, np.float64):
+        right.flat[draw(st.integers(0, right.size - 1))] = draw(st.sampled_from([np.nan, np.inf, -np.inf]))
+    if draw(st.integers(0, 9)) == 0:
+        right = right[:, : max(0, w - 1)]
+    params = dict(
+        min_disparity=draw(st.integers(-8, 8)),
+        num_disparities=draw(st.integers(-2, 40)),
+        block_size=draw(st.integers(0, 8)),
+        cost=draw(st.sampled_from(["census", "sad"])),
+        census_window=draw(st.sampled_from([(9, 7), (5, 5), (3, 3), (7, 9)])),
+        uniqueness=draw(st.sampled_from([0, 5.0, 50])),
+        lr_check=draw(st.sampled_from([None, 0, 1.0, 3.0])),
+        subpixel=draw(st.booleans()),
+        speckle_size=draw(st.sampled_from([0, 4, 100])),
+        fill_holes=draw(st.booleans()),
+        paths=draw(st.sampled_from([4, 8])),
+    )
+    return left, right, params
+
+
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(case=_pairs())
+def test_property_well_formed_or_named_error(case):
+    left, right, params = case
+    try:
+        dmap = compute_disparity(left, right, **params)
+    except ValueError as exc:
+        msg = str(exc)
+        assert re.search(r"`[a-z_]+`|images must be at least", msg), msg
+        return
+    assert dmap.disparity.shape == left.shape[:2] and dmap.disparity.dtype == np.float32
+    finite = dmap.disparity[np.isfinite(dmap.disparity)]
+    assert not np.isinf(dmap.disparity).any()
+    p = dmap.params
+    assert ((finite >= p.min_disparity - 1) & (finite <= p.max_disparity + 1)).all()
+    assert dmap.validity["valid"] == finite.size
