@@ -1,0 +1,206 @@
+"""Disparity error metrics against ground truth, in two views and per region.
+
+Conventions (the project's): disparity is float32 pixels, ``d = x_left - x_right``; NaN (or any
+non-finite value) means unknown. Pixels without ground truth never count, in any view.
+
+Two views, both always reported:
+
+- ``"all"``: every pixel with ground truth counts; a pixel the method left unknown counts as bad
+  (for bad-t and D1). EPE and RMS are not defined for a pixel without an estimate, so in this view
+  they are ``None``; the density says how many pixels have one.
+- ``"valid"``: only pixels with ground truth *and* an estimate count.
+
+Regions: ``"full"`` (every pixel with ground truth), ``"nonocc"`` (non-occluded pixels, where a mask
+exists) and ``"border"`` (the left band ``x < max_disparity``, where a left-view matcher cannot see
+the whole disparity range; OpenCV leaves it unknown).
+
+Example
+-------
+>>> import numpy as np
+>>> gt = np.array([[1.0, 2.0, np.nan, 4.0]], np.float32)
+>>> pred = np.array([[1.0, 5.0, 3.0, np.nan]], np.float32)
+>>> m = error_metrics(pred, gt)
+>>> m["all"]["bad2"], m["valid"]["bad2"], m["all"]["density"]
+(66.66666666666667, 50.0, 66.66666666666667)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+__all__ = [
+    "BAD_THRESHOLDS",
+    "METRIC_NAMES",
+    "VIEWS",
+    "REGIONS",
+    "error_metrics",
+    "scene_metrics",
+    "mean_metrics",
+]
+
+#: Thresholds (pixels) of the bad-t percentages.
+BAD_THRESHOLDS: tuple[float, ...] = (0.5, 1.0, 2.0, 4.0)
+#: Metric keys of one view, in display order.
+METRIC_NAMES: tuple[str, ...] = ("bad0.5", "bad1", "bad2", "bad4", "epe", "rms", "d1", "density", "n")
+VIEWS: tuple[str, ...] = ("all", "valid")
+REGIONS: tuple[str, ...] = ("full", "nonocc", "border")
+
+
+def _bad_key(threshold: float) -> str:
+    return f"bad{threshold:g}"
+
+
+def _as_disparity(name: str, value: object) -> np.ndarray:
+    array = np.asarray(value)
+    if array.ndim != 2:
+        raise ValueError(f"`{name}` must be a 2-D (H, W) disparity array, got shape {array.shape}")
+    if not (np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)):
+        raise ValueError(f"`{name}` must hold real numbers (float disparity, NaN unknown), got dtype {array.dtype}")
+    return array.astype(np.float64, copy=False)
+
+
+def error_metrics(
+    disparity: np.ndarray,
+    gt_disparity: np.ndarray,
+    mask: np.ndarray | None = None,
+    *,
+    thresholds: Sequence[float] = BAD_THRESHOLDS,
+) -> dict[str, dict[str, float | int | None]]:
+    """Error of one disparity map against ground truth over one region, in both views.
+
+    Parameters
+    ----------
+    disparity : (H, W) float array, pixels
+        The estimate; NaN or +-inf where unknown.
+    gt_disparity : (H, W) float array, pixels
+        Ground truth; NaN or +-inf where there is none (those pixels never count).
+    mask : (H, W) bool array, optional
+        The region to evaluate (True = counted). ``None`` is the whole image.
+    thresholds : sequence of float
+        Error thresholds (pixels) of the bad-t percentages.
+
+    Returns
+    -------
+    dict
+        ``{"all": {...}, "valid": {...}}``; each view maps ``"bad0.5"``, ``"bad1"``, ``"bad2"``,
+        ``"bad4"``, ``"d1"`` and ``"density"`` to percentages, ``"epe"`` and ``"rms"`` to pixels and
+        ``"n"`` to the number of pixels counted. A value that is not defined (no pixel counted, or EPE
+        in the "all" view) is ``None``.
+
+    Raises
+    ------
+    ValueError
+        Arrays that are not 2-D, differ in shape, or are not numeric; a mask that is not boolean.
+    """
+    pred = _as_disparity("disparity", disparity)
+    gt = _as_disparity("gt_disparity", gt_disparity)
+    if pred.shape != gt.shape:
+        raise ValueError(f"`disparity` shape {pred.shape} must equal `gt_disparity` shape {gt.shape}")
+    known = np.isfinite(gt)
+    if mask is not None:
+        mask_arr = np.asarray(mask)
+        if mask_arr.shape != gt.shape:
+            raise ValueError(f"`mask` shape {mask_arr.shape} must equal `gt_disparity` shape {gt.shape}")
+        if mask_arr.dtype != np.bool_:
+            raise ValueError(f"`mask` must be a boolean array, got dtype {mask_arr.dtype}")
+        known &= mask_arr
+    for t in thresholds:
+        if not (math.isfinite(t) and t >= 0):
+            raise ValueError(f"`thresholds` must be finite and >= 0, got {t!r}")
+
+    has_estimate = np.isfinite(pred)
+    n_known = int(known.sum())
+    counted = known & has_estimate
+    n_valid = int(counted.sum())
+    n_unknown = n_known - n_valid
+    err = np.abs(pred[counted] - gt[counted])
+    gt_counted = np.abs(gt[counted])
+    d1_bad = int(np.count_nonzero((err > 3.0) & (err > 0.05 * gt_counted)))
+
+    def pct(count: int, total: int) -> float | None:
+        return 100.0 * count / total if total else None
+
+    views: dict[str, dict[str, float | int | None]] = {"all": {}, "valid": {}}
+    for t in thresholds:
+        bad = int(np.count_nonzero(err > t))
+        views["all"][_bad_key(t)] = pct(bad + n_unknown, n_known)
+        views["valid"][_bad_key(t)] = pct(bad, n_valid)
+    epe = float(err.mean()) if n_valid else None
+    rms = float(np.sqrt(np.mean(err * err))) if n_valid else None
+    views["all"]["epe"] = None
+    views["all"]["rms"] = None
+    views["valid"]["epe"] = epe
+    views["valid"]["rms"] = rms
+    views["all"]["d1"] = pct(d1_bad + n_unknown, n_known)
+    views["valid"]["d1"] = pct(d1_bad, n_valid)
+    density = pct(n_valid, n_known)
+    views["all"]["density"] = density
+    views["valid"]["density"] = density
+    views["all"]["n"] = n_known
+    views["valid"]["n"] = n_valid
+    return views
+
+
+def scene_metrics(
+    disparity: np.ndarray,
+    gt_disparity: np.ndarray,
+    *,
+    nonocc_mask: np.ndarray | None = None,
+    max_disparity: int | None = None,
+) -> dict[str, dict[str, dict[str, float | int | None]]]:
+    """Metrics of one scene per region: ``{"full": ..., "nonocc": ..., "border": ...}``.
+
+    Parameters
+    ----------
+    disparity, gt_disparity : (H, W) float arrays, pixels, NaN unknown
+    nonocc_mask : (H, W) bool array, optional
+        True where the pixel is visible in both views. Without it there is no ``"nonocc"`` region.
+    max_disparity : int, optional
+        Width of the left border band (``x < max_disparity``). Without it there is no ``"border"``.
+
+    Returns
+    -------
+    dict
+        Region name to the :func:`error_metrics` result of that region.
+    """
+    gt = np.asarray(gt_disparity)
+    out = {"full": error_metrics(disparity, gt)}
+    if nonocc_mask is not None:
+        out["nonocc"] = error_metrics(disparity, gt, np.asarray(nonocc_mask, dtype=bool))
+    if max_disparity is not None:
+        if isinstance(max_disparity, bool) or not isinstance(max_disparity, (int, np.integer)) or max_disparity < 0:
+            raise ValueError(f"`max_disparity` must be an integer >= 0, got {max_disparity!r}")
+        if gt.ndim != 2:
+            raise ValueError(f"`gt_disparity` must be a 2-D (H, W) disparity array, got shape {gt.shape}")
+        band = np.zeros(gt.shape, dtype=bool)
+        band[:, : int(max_disparity)] = True
+        out["border"] = error_metrics(disparity, gt, band)
+    return out
+
+
+def mean_metrics(per_scene: Sequence[Mapping]) -> dict:
+    """Average nested metric dicts over scenes, key by key, ignoring ``None`` (each scene weighs the same).
+
+    ``"n"`` is summed instead of averaged. A key that is ``None`` in every scene stays ``None``.
+    """
+    if not per_scene:
+        return {}
+    first = per_scene[0]
+    out: dict = {}
+    keys: list = list(first.keys())
+    for other in per_scene[1:]:
+        keys += [k for k in other.keys() if k not in keys]
+    for key in keys:
+        values = [scene[key] for scene in per_scene if key in scene]
+        if any(isinstance(v, Mapping) for v in values):
+            out[key] = mean_metrics([v for v in values if isinstance(v, Mapping)])
+            continue
+        numbers = [float(v) for v in values if v is not None]
+        if key == "n":
+            out[key] = int(sum(numbers))
+        else:
+            out[key] = float(np.mean(numbers)) if numbers else None
+    return out
