@@ -1,0 +1,166 @@
+"""Finding a model file: explicit path, ``$STEREO_CLASSIC_MODELS``, the user cache, or a checked download."""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+import urllib.error
+import urllib.request
+from dataclasses import dataclass
+from pathlib import Path
+
+from detectors.errors import ModelError, ModelNotFoundError
+
+__all__ = ["KnownModel", "KNOWN_MODELS", "DEFAULT_MODEL", "MODELS_ENV", "cache_dir", "resolve_model", "download_model"]
+
+MODELS_ENV = "STEREO_CLASSIC_MODELS"
+DEFAULT_MODEL = "yolox_nano"
+
+
+@dataclass(frozen=True)
+class KnownModel:
+    """A model with an official download: its URL, sha256 and licence."""
+
+    url: str
+    sha256: str
+    licence: str = ""
+
+
+KNOWN_MODELS: dict[str, KnownModel] = {
+    "yolox_nano": KnownModel(
+        url="https://github.com/Megvii-BaseDetection/YOLOX/releases/download/0.1.1rc0/yolox_nano.onnx",
+        sha256="695e750a5d5754bb5a8d5325643b59282191a7e7a564e435a415fd3c578eab14",
+        licence="Apache-2.0 (Megvii YOLOX)",
+    ),
+}
+"""Models :func:`resolve_model` may download. Only files whose sha256 is known are listed."""
+
+
+def cache_dir() -> Path:
+    """``$XDG_CACHE_HOME/stereo_classic/models`` (default ``~/.cache/stereo_classic/models``)."""
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "stereo_classic" / "models"
+
+
+def _looks_like_path(text: str) -> bool:
+    return os.sep in text or (os.altsep is not None and os.altsep in text) or text.lower().endswith(".onnx")
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def resolve_model(name_or_path: str | os.PathLike | None = None, *, download: bool = True) -> Path:
+    """Where the model file is.
+
+    Order: an existing path; ``$STEREO_CLASSIC_MODELS/<name>.onnx``; the user cache
+    (:func:`cache_dir`) ``<name>.onnx``; a download of the official file (only names in
+    :data:`KNOWN_MODELS`, sha256 checked) into the cache.
+
+    Parameters
+    ----------
+    name_or_path : str or path, optional
+        A file path or a model name (default ``"yolox_nano"``).
+    download : bool
+        Allow the download step.
+
+    Raises
+    ------
+    ModelNotFoundError
+        One line saying where to put the file or which variable to set.
+    ModelError
+        The download did not match its sha256 (nothing is kept).
+    """
+    if name_or_path is None:
+        name_or_path = DEFAULT_MODEL
+    if not isinstance(name_or_path, (str, os.PathLike)):
+        raise ValueError(f"`name_or_path` must be a model name or a path, got {type(name_or_path).__name__}")
+    text = os.fspath(name_or_path)
+    if not text:
+        raise ValueError("`name_or_path` must not be empty")
+    path = Path(text).expanduser()
+    if path.is_file():
+        return path
+    if isinstance(name_or_path, os.PathLike) or _looks_like_path(text):
+        if path.is_dir():
+            raise ModelNotFoundError(f"model path {path} is a directory, expected an .onnx file")
+        raise ModelNotFoundError(f"model file {path} does not exist")
+    name = text
+    candidates = []
+    env = os.environ.get(MODELS_ENV)
+    if env:
+        candidates.append(Path(env).expanduser() / f"{name}.onnx")
+    cached = cache_dir() / f"{name}.onnx"
+    candidates.append(cached)
+    for c in candidates:
+        if c.is_file():
+            return c
+    where = f"put {name}.onnx in {cached.parent} or set {MODELS_ENV} to the folder holding it"
+    known = KNOWN_MODELS.get(name)
+    if known is None:
+        raise ModelNotFoundError(f"model {name!r} not found: {where} (no official download for this name; "
+                                 f"known: {', '.join(sorted(KNOWN_MODELS))})")
+    if not download:
+        raise ModelNotFoundError(f"model {name!r} not found: {where} (or run `python -m detectors fetch {name}`)")
+    try:
+        return download_model(name)
+    except OSError as exc:
+        raise ModelNotFoundError(f"model {name!r} not found and the download from {known.url} failed "
+                                 f"({_reason(exc)}): {where}") from None
+
+
+def _reason(exc: BaseException) -> str:
+    if isinstance(exc, urllib.error.URLError) and not isinstance(exc, urllib.error.HTTPError):
+        return f"{exc.reason}".replace("\n", " ")
+    return f"{exc}".replace("\n", " ")
+
+
+def download_model(name: str, *, url: str | None = None, sha256: str | None = None,
+                   dest_dir: str | os.PathLike | None = None, timeout: float = 30.0) -> Path:
+    """Download ``<name>.onnx`` into ``dest_dir`` (default :func:`cache_dir`), checking its sha256.
+
+    The file is written to a temporary name in the same folder and renamed into place only after
+    the checksum matched, so a failed or wrong download leaves nothing behind. ``url``/``sha256``
+    default to :data:`KNOWN_MODELS`. Raises ``OSError`` (``urllib.error.URLError``) when the
+    download fails and :class:`ModelError` on a checksum mismatch.
+    """
+    known = KNOWN_MODELS.get(name)
+    if url is None or sha256 is None:
+        if known is None:
+            raise ValueError(f"no official download for model {name!r}; known: {', '.join(sorted(KNOWN_MODELS))}")
+        url = url or known.url
+        sha256 = sha256 or known.sha256
+    sha256 = sha256.lower()
+    folder = Path(dest_dir) if dest_dir is not None else cache_dir()
+    folder.mkdir(parents=True, exist_ok=True)
+    target = folder / f"{name}.onnx"
+    fd, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=".part", dir=folder)
+    try:
+        h = hashlib.sha256()
+        with os.fdopen(fd, "wb") as out, urllib.request.urlopen(url, timeout=timeout) as resp:
+            for chunk in iter(lambda: resp.read(1 << 20), b""):
+                h.update(chunk)
+                out.write(chunk)
+            out.flush()
+            os.fsync(out.fileno())
+        got = h.hexdigest()
+        if got != sha256:
+            raise ModelError(f"download of {name} from {url} has sha256 {got}, expected {sha256}; nothing was saved")
+        os.replace(tmp, target)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    return target
+
+
+def verify_sha256(path: str | os.PathLike, sha256: str) -> bool:
+    """True when the file's sha256 is ``sha256``."""
+    return _sha256(Path(path)) == sha256.lower()

@@ -1,0 +1,352 @@
+"""``OnnxDetector``: run an exported ONNX object detector with onnxruntime on one image."""
+
+from __future__ import annotations
+
+import ast
+import logging
+import os
+import time
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from detectors.classes import COCO_CLASSES, coerce_names, names_from_metadata, read_names_file
+from detectors.decoders import FAMILIES, PREPROCESSING, OutputLayout, decode, recognise_layout
+from detectors.errors import ModelError
+from detectors.letterbox import Letterbox, Preprocessing, check_image, letterbox
+from detectors.models import resolve_model
+from detectors.nms import nms
+from detectors.results import Detections
+
+__all__ = ["OnnxDetector"]
+
+log = logging.getLogger(__name__)
+
+_INPUT_DTYPES = {"tensor(float)": np.float32, "tensor(float16)": np.float16, "tensor(uint8)": np.uint8}
+_OUTPUT_DTYPES = {"tensor(float)": np.float32, "tensor(float16)": np.float16, "tensor(double)": np.float64,
+                  "tensor(int64)": np.int64, "tensor(int32)": np.int32, "tensor(uint8)": np.uint8}
+_MAX_CANDIDATES = 30000
+
+
+def _check_unit(value: object, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not 0.0 <= float(value) <= 1.0:
+        raise ValueError(f"`{name}` must be a number in [0, 1], got {value!r}")
+    return float(value)
+
+
+def _static(dim: object) -> int | None:
+    return int(dim) if isinstance(dim, (int, np.integer)) and int(dim) > 0 else None
+
+
+class OnnxDetector:
+    """An exported ONNX detector (YOLOX, YOLOv5, YOLOv8/YOLO11, NanoDet, FastestDet, NMS-included).
+
+    Parameters
+    ----------
+    model : str, path or bytes
+        An ONNX file, a model name for :func:`detectors.resolve_model` (``"yolox_nano"``), or the
+        serialized model bytes.
+    conf_threshold : float in [0, 1]
+        Keep boxes scoring above this (YOLOX/YOLOv5: objectness x class score).
+    iou_threshold : float in [0, 1]
+        Class-aware NMS overlap threshold.
+    classes : iterable of str or int, optional
+        Only report these classes (names or class ids).
+    threads : int, optional
+        onnxruntime intra-op threads (None: onnxruntime's default, all cores).
+    providers : sequence of str
+        onnxruntime execution providers.
+    names : sequence of str or path, optional
+        Class names (or a file with one name a line); default: the ONNX metadata, else COCO-80.
+    family : str, optional
+        Force the output decoder, one of ``detectors.decoders.FAMILIES``; default: recognised from
+        the output shapes, metadata and file name (rules in :mod:`detectors.decoders`).
+    input_size : int or (width, height), optional
+        Input size for models with dynamic input dimensions (default: metadata ``imgsz``, else 640);
+        must match a fixed-size model.
+    preprocessing : Preprocessing, optional
+        Override the family's colour order, scaling, normalisation and letterbox placement.
+    max_detections : int
+        At most this many boxes per image, highest scores first.
+
+    Examples
+    --------
+    >>> det = OnnxDetector("yolox_nano", threads=2)                  # doctest: +SKIP
+    >>> dets = det.detect(cv2.imread("left.png")).only("person")     # doctest: +SKIP
+    """
+
+    def __init__(
+        self,
+        model: str | os.PathLike | bytes,
+        *,
+        conf_threshold: float = 0.3,
+        iou_threshold: float = 0.45,
+        classes: Iterable[str | int] | None = None,
+        threads: int | None = None,
+        providers: Sequence[str] = ("CPUExecutionProvider",),
+        names: Sequence[str] | str | os.PathLike | None = None,
+        family: str | None = None,
+        input_size: int | tuple[int, int] | None = None,
+        preprocessing: Preprocessing | None = None,
+        max_detections: int = 300,
+    ) -> None:
+        import onnxruntime as ort
+
+        self.conf_threshold = _check_unit(conf_threshold, "conf_threshold")
+        self.iou_threshold = _check_unit(iou_threshold, "iou_threshold")
+        if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
+            raise ValueError(f"`threads` must be a positive int or None, got {threads!r}")
+        if isinstance(max_detections, bool) or not isinstance(max_detections, (int, np.integer)) or max_detections < 1:
+            raise ValueError(f"`max_detections` must be a positive int, got {max_detections!r}")
+        if family is not None and family not in FAMILIES:
+            raise ValueError(f"`family` must be one of {', '.join(FAMILIES)} or None, got {family!r}")
+        if preprocessing is not None and not isinstance(preprocessing, Preprocessing):
+            raise ValueError(f"`preprocessing` must be a detectors.Preprocessing, got {type(preprocessing).__name__}")
+        if isinstance(providers, str) or not all(isinstance(p, str) for p in providers):
+            raise ValueError(f"`providers` must be a sequence of provider names, got {providers!r}")
+        available = ort.get_available_providers()
+        for p in providers:
+            if p not in available:
+                raise ValueError(f"`providers`: {p!r} is not available in this onnxruntime; available: {', '.join(available)}")
+        self.max_detections = int(max_detections)
+        self.threads = threads
+
+        if isinstance(model, (bytes, bytearray)):
+            source: bytes | str = bytes(model)
+            self.model_path: Path | None = None
+            hint = ""
+        else:
+            self.model_path = resolve_model(model)
+            source = str(self.model_path)
+            hint = self.model_path.name
+        opts = ort.SessionOptions()
+        opts.log_severity_level = 3
+        opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
+        opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
+        opts.inter_op_num_threads = 1
+        if threads is not None:
+            opts.intra_op_num_threads = int(threads)
+        where = self.model_path if self.model_path is not None else "<model bytes>"
+        try:
+            self.session = ort.InferenceSession(source, sess_options=opts, providers=list(providers))
+        except Exception as exc:  # onnxruntime raises its own classes (InvalidProtobuf, Fail, ...)
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise ModelError(f"cannot load ONNX model {where}: {first[:300]}") from None
+        self.metadata: dict[str, str] = dict(self.session.get_modelmeta().custom_metadata_map)
+
+        # ---------------------------------------------------------------- input
+        inputs = self.session.get_inputs()
+        if len(inputs) != 1:
+            raise ModelError(f"model {where} must have one image input, has {len(inputs)}: "
+                             + ", ".join(f"{i.name} {i.shape}" for i in inputs))
+        inp = inputs[0]
+        self.input_name = inp.name
+        if inp.type not in _INPUT_DTYPES:
+            raise ModelError(f"model {where} input {inp.name!r} has type {inp.type}; expected float, float16 or uint8")
+        self._input_dtype = _INPUT_DTYPES[inp.type]
+        shape = list(inp.shape)
+        if len(shape) != 4:
+            raise ModelError(f"model {where} input {inp.name!r} must be 4-D (1, 3, H, W) or (1, H, W, 3), got {shape}")
+        if _static(shape[0]) not in (None, 1):
+            raise ModelError(f"model {where} input {inp.name!r} has fixed batch size {shape[0]}; only 1 is supported")
+        if _static(shape[1]) == 3 or (_static(shape[1]) is None and _static(shape[3]) != 3):
+            self.nchw = True
+            hdim, wdim = shape[2], shape[3]
+        elif _static(shape[3]) == 3:
+            self.nchw = False
+            hdim, wdim = shape[1], shape[2]
+        else:
+            raise ModelError(f"model {where} input {inp.name!r} has no 3-channel axis: {shape}")
+        fixed = (_static(wdim), _static(hdim))
+        requested = self._parse_size(input_size)
+        if fixed[0] is not None and fixed[1] is not None:
+            if requested is not None and requested != fixed:
+                raise ValueError(f"`input_size` {requested} does not match the model's fixed input size {fixed} (width, height)")
+            size = fixed
+        else:
+            size = requested or self._metadata_size() or (640, 640)
+            if size[0] % 32 or size[1] % 32:
+                raise ValueError(f"`input_size` of a dynamic-size model must be multiples of 32, got {size}")
+            size = (fixed[0] or size[0], fixed[1] or size[1])
+        self.input_size: tuple[int, int] = size  # (width, height)
+
+        # ---------------------------------------------------------------- class names given
+        given_names: tuple[str, ...] | None = None
+        if names is not None:
+            if isinstance(names, (str, os.PathLike)):
+                given_names = read_names_file(names)
+            else:
+                given_names = coerce_names(names, parameter="names")
+        meta_names = names_from_metadata(self.metadata)
+        known = given_names or meta_names
+
+        # ---------------------------------------------------------------- outputs: a dry run
+        outs = self.session.get_outputs()
+        self.output_names = [o.name for o in outs]
+        zeros = self._blank_input()
+        try:
+            raw = self.session.run(None, {self.input_name: zeros})
+        except Exception as exc:
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise ModelError(f"model {where} failed on a blank {size[0]}x{size[1]} input: {first[:300]}") from None
+        shapes = [np.shape(r) for r in raw]
+        dtypes = [np.asarray(r).dtype for r in raw]
+        self.layout: OutputLayout = recognise_layout(
+            self.output_names, shapes, dtypes, (size[1], size[0]), metadata=self.metadata, hint=hint,
+            family=family, num_names=len(known) if known else None)
+        self.family = self.layout.family
+
+        if known is None:
+            if self.layout.num_classes != 80:
+                raise ModelError(f"model {where} ({self.layout.describe()}) stores no class names and is not COCO-80; "
+                                 "pass names=[...] or a names file")
+            known = COCO_CLASSES
+        if self.family != "nms" and len(known) != self.layout.num_classes:
+            src = "`names`" if given_names else "ONNX metadata names"
+            raise ModelError(f"{src} list {len(known)} classes but model {where} outputs {self.layout.num_classes}")
+        self.class_names: tuple[str, ...] = known
+        self._allowed = self._parse_classes(classes)
+        if preprocessing is None:
+            fam = self.family
+            if fam == "nms" and _hint_is_yolox(hint):
+                fam = "yolox"
+            preprocessing = PREPROCESSING[fam]
+        self.preprocessing = preprocessing
+        self._scale = np.float32(preprocessing.scale)
+        self._mean = None if preprocessing.mean is None else np.asarray(preprocessing.mean, np.float32).reshape(3, 1, 1)
+        self._inv_std = None if preprocessing.std is None else (1.0 / np.asarray(preprocessing.std, np.float32)).reshape(3, 1, 1)
+        self.last_timings_ms: dict[str, float] = {}
+
+    # ------------------------------------------------------------------ helpers
+    @staticmethod
+    def _parse_size(input_size) -> tuple[int, int] | None:
+        if input_size is None:
+            return None
+        if isinstance(input_size, (int, np.integer)) and not isinstance(input_size, bool):
+            input_size = (int(input_size), int(input_size))
+        try:
+            w, h = input_size
+        except (TypeError, ValueError):
+            raise ValueError(f"`input_size` must be an int or (width, height), got {input_size!r}") from None
+        for v in (w, h):
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 32 <= v <= 8192:
+                raise ValueError(f"`input_size` must be ints in [32, 8192], got {input_size!r}")
+        return int(w), int(h)
+
+    def _metadata_size(self) -> tuple[int, int] | None:
+        raw = self.metadata.get("imgsz")
+        if not raw:
+            return None
+        try:
+            value = ast.literal_eval(raw.strip())
+            if isinstance(value, int):
+                value = [value, value]
+            h, w = (int(v) for v in value)
+        except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
+            return None
+        return (w, h) if w > 0 and h > 0 else None
+
+    def _parse_classes(self, classes) -> np.ndarray | None:
+        if classes is None:
+            return None
+        if isinstance(classes, (str, int)):
+            classes = [classes]
+        ids = []
+        for c in classes:
+            if isinstance(c, str):
+                if c not in self.class_names:
+                    raise ValueError(f"`classes`: unknown class name {c!r}; valid names: {', '.join(self.class_names)}")
+                ids.append(self.class_names.index(c))
+            elif isinstance(c, (int, np.integer)) and not isinstance(c, bool) and 0 <= c < len(self.class_names):
+                ids.append(int(c))
+            else:
+                raise ValueError(f"`classes` entries must be class names or ids in [0, {len(self.class_names) - 1}], got {c!r}")
+        if not ids:
+            raise ValueError("`classes` must name at least one class (or be None for all)")
+        return np.unique(np.asarray(ids, np.int64))
+
+    def _blank_input(self) -> np.ndarray:
+        w, h = self.input_size
+        shape = (1, 3, h, w) if self.nchw else (1, h, w, 3)
+        return np.zeros(shape, dtype=self._input_dtype)
+
+    # ------------------------------------------------------------------ run
+    def preprocess(self, image: np.ndarray) -> tuple[np.ndarray, Letterbox]:
+        """Image (BGR uint8 or grey) -> model input tensor and the letterbox for mapping boxes back."""
+        img = check_image(image)
+        prep = self.preprocessing
+        padded, lb = letterbox(img, self.input_size, prep)
+        if self._input_dtype == np.uint8:
+            x = cv2.cvtColor(padded, cv2.COLOR_BGR2RGB) if prep.rgb else padded
+            x = x.transpose(2, 0, 1)[None] if self.nchw else x[None]
+            return np.ascontiguousarray(x), lb
+        blob = cv2.dnn.blobFromImage(padded, scalefactor=float(prep.scale), swapRB=prep.rgb)  # (1, 3, H, W) float32
+        if self._mean is not None:
+            blob[0] -= self._mean
+        if self._inv_std is not None:
+            blob[0] *= self._inv_std
+        if not self.nchw:
+            blob = np.ascontiguousarray(blob.transpose(0, 2, 3, 1))
+        if self._input_dtype != np.float32:
+            blob = blob.astype(self._input_dtype)
+        return blob, lb
+
+    def postprocess(self, outputs: Sequence[np.ndarray], lb: Letterbox) -> Detections:
+        """Raw session outputs -> :class:`Detections` in original-image pixels."""
+        w, h = self.input_size
+        xyxy, scores, cid = decode(self.layout, outputs, (h, w), self.conf_threshold)
+        ok = np.all(np.isfinite(xyxy), axis=1) & np.isfinite(scores) & (cid >= 0) & (cid < len(self.class_names))
+        if self._allowed is not None:
+            ok &= np.isin(cid, self._allowed)
+        if not np.all(ok):
+            xyxy, scores, cid = xyxy[ok], scores[ok], cid[ok]
+        scores = np.clip(scores, 0.0, 1.0)
+        if scores.size > _MAX_CANDIDATES:
+            top = np.argsort(-scores, kind="stable")[:_MAX_CANDIDATES]
+            xyxy, scores, cid = xyxy[top], scores[top], cid[top]
+        if self.family == "nms":
+            keep = np.argsort(-scores, kind="stable")[: self.max_detections]
+        else:
+            keep = nms(xyxy, scores, cid, iou_threshold=self.iou_threshold, max_detections=self.max_detections)
+        boxes = lb.to_original(xyxy[keep])
+        visible = (boxes[:, 2] > boxes[:, 0]) & (boxes[:, 3] > boxes[:, 1])
+        return Detections(boxes[visible], scores[keep][visible], cid[keep][visible], self.class_names)
+
+    def detect(self, image: np.ndarray) -> Detections:
+        """Detect objects in one image.
+
+        Parameters
+        ----------
+        image : (H, W, 3) uint8 BGR (as ``cv2.imread`` gives), or (H, W) / (H, W, 1) grey uint8
+
+        Returns
+        -------
+        Detections
+            Boxes in pixels of ``image``, clipped to it, highest confidence first. Stage times in
+            milliseconds are left in ``self.last_timings_ms`` (``preprocess``, ``inference``,
+            ``postprocess``, ``total``).
+        """
+        t0 = time.perf_counter()
+        x, lb = self.preprocess(image)
+        t1 = time.perf_counter()
+        raw = self.session.run(None, {self.input_name: x})
+        t2 = time.perf_counter()
+        dets = self.postprocess(raw, lb)
+        t3 = time.perf_counter()
+        self.last_timings_ms = {"preprocess": (t1 - t0) * 1e3, "inference": (t2 - t1) * 1e3,
+                                "postprocess": (t3 - t2) * 1e3, "total": (t3 - t0) * 1e3}
+        return dets
+
+    __call__ = detect
+
+    def __repr__(self) -> str:
+        src = self.model_path.name if self.model_path else "<bytes>"
+        return (f"OnnxDetector({src}: {self.layout.describe()}, input {self.input_size[0]}x{self.input_size[1]}, "
+                f"conf>{self.conf_threshold}, iou {self.iou_threshold})")
+
+
+def _hint_is_yolox(hint: str) -> bool:
+    return "yolox" in hint.lower()
