@@ -1,0 +1,114 @@
+"""``python -m detectors``: fetch a model into the cache, or run a detector on images.
+
+Exit codes: 0 success, 1 runtime failure (missing model, download failed, bad file), 2 usage error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from collections.abc import Sequence
+
+__all__ = ["main", "build_parser"]
+
+log = logging.getLogger("detectors")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="python -m detectors", description="ONNX object detectors (YOLOX, YOLOv5/8, NanoDet).")
+    verbosity = parser.add_mutually_exclusive_group()
+    verbosity.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
+    verbosity.add_argument("-q", "--quiet", action="store_true", help="only errors")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    fetch = sub.add_parser("fetch", help="download a model's official file into the user cache (sha256 checked)")
+    fetch.add_argument("name", nargs="?", default="yolox_nano", help="model name (default yolox_nano)")
+    fetch.add_argument("--force", action="store_true", help="download again even when the cache holds a good copy")
+    det = sub.add_parser("detect", help="detect objects in images; JSON lines on stdout (one per image)")
+    det.add_argument("images", nargs="+", help="image files")
+    det.add_argument("--model", default=None, help="model name or .onnx path (default yolox_nano)")
+    det.add_argument("--conf", type=float, default=0.3, help="confidence threshold (default 0.3)")
+    det.add_argument("--iou", type=float, default=0.45, help="NMS IoU threshold (default 0.45)")
+    det.add_argument("--threads", type=int, default=None, help="onnxruntime threads")
+    det.add_argument("--classes", nargs="+", default=None, help="only these class names")
+    return parser
+
+
+def _configure_logging(verbose: int, quiet: bool) -> None:
+    level = logging.ERROR if quiet else (logging.DEBUG if verbose >= 1 else logging.INFO)
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(message)s"))
+    root = logging.getLogger("detectors")
+    root.handlers[:] = [handler]
+    root.setLevel(level)
+    root.propagate = False
+
+
+def _fetch(args) -> int:
+    from detectors.errors import ModelError
+    from detectors.models import KNOWN_MODELS, cache_dir, download_model, verify_sha256
+
+    known = KNOWN_MODELS.get(args.name)
+    if known is None:
+        log.error("no official download for model %r; known: %s", args.name, ", ".join(sorted(KNOWN_MODELS)))
+        return 2
+    target = cache_dir() / f"{args.name}.onnx"
+    if target.is_file() and not args.force and verify_sha256(target, known.sha256):
+        log.info("%s already in the cache, sha256 ok", target)
+        print(target)
+        return 0
+    log.info("downloading %s from %s", args.name, known.url)
+    try:
+        path = download_model(args.name)
+    except ModelError as exc:
+        log.error("%s", exc)
+        return 1
+    except OSError as exc:
+        reason = getattr(exc, "reason", exc)
+        log.error("download of %s from %s failed (%s); put %s.onnx in %s or set STEREO_CLASSIC_MODELS",
+                  args.name, known.url, reason, args.name, target.parent)
+        return 1
+    log.info("saved %s (sha256 ok, licence %s)", path, known.licence)
+    print(path)
+    return 0
+
+
+def _detect(args) -> int:
+    import cv2
+
+    from detectors.onnx_detector import OnnxDetector
+
+    try:
+        detector = OnnxDetector(args.model or "yolox_nano", conf_threshold=args.conf, iou_threshold=args.iou,
+                                threads=args.threads, classes=args.classes)
+    except (ValueError, FileNotFoundError) as exc:
+        log.error("%s", exc)
+        return 1 if isinstance(exc, FileNotFoundError) or type(exc).__name__ == "ModelError" else 2
+    status = 0
+    for path in args.images:
+        image = cv2.imread(path, cv2.IMREAD_COLOR)
+        if image is None:
+            log.error("cannot read image %s (missing or not an image)", path)
+            status = 1
+            continue
+        dets = detector.detect(image)
+        print(json.dumps({"image": path, "detections": dets.to_json(),
+                          "timings_ms": {k: round(v, 2) for k, v in detector.last_timings_ms.items()}}))
+        log.info("%s: %d objects (%.1f ms)", path, len(dets), detector.last_timings_ms["total"])
+    return status
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    _configure_logging(args.verbose, args.quiet)
+    if args.command == "fetch":
+        return _fetch(args)
+    if args.command == "detect":
+        return _detect(args)
+    parser.print_help(sys.stderr)
+    return 2
