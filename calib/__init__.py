@@ -1,3 +1,36 @@
-"""calib: the stereo rig (intrinsics, distortion, R/T), rectification, calibration file formats."""
+"""calib: the stereo rig (intrinsics, distortion, R/T), rectification, calibration file formats.
 
-__all__: list[str] = []
+A leaf package: it imports neither ``stereo_classic`` nor ``detectors``.
+
+- :class:`StereoRig`: raw cameras (K, distortion, R, T, image size) -> :meth:`StereoRig.rectify`
+- :class:`RectifiedRig`: rectified geometry (focal, principal points, baseline) -> depth and 3D points
+- readers/writers: OpenCV YAML/XML, KITTI, Middlebury, ROS camera_info, OAK-D JSON; :func:`load_rig` sniffs
+- :func:`calibrate_stereo`: checkerboard or ChArUco image pairs -> (StereoRig, CalibrationReport)
+"""
+
+from calib.boards import CharucoBoard, CheckerBoard, detect_board
+from calib.calibrate import CalibrationReport, calibrate_stereo
+from calib.errors import CalibrationError
+from calib.features import vertical_offset
+from calib.formats import load_rig, read_middlebury_calib
+from calib.geometry import depth_from_disparity, disparity_from_depth, points_from_disparity
+from calib.rectified import RectificationWarning, RectifiedRig
+from calib.rig import StereoRig
+
+__all__ = [
+    "CalibrationError",
+    "CalibrationReport",
+    "CharucoBoard",
+    "CheckerBoard",
+    "RectificationWarning",
+    "RectifiedRig",
+    "StereoRig",
+    "calibrate_stereo",
+    "depth_from_disparity",
+    "detect_board",
+    "disparity_from_depth",
+    "load_rig",
+    "points_from_disparity",
+    "read_middlebury_calib",
+    "vertical_offset",
+]

@@ -1,0 +1,160 @@
+"""Disparity <-> depth <-> 3D points for a rectified pair.
+
+Conventions: disparity ``d = x_left - x_right`` in pixels (float32), depth ``Z`` in metres, NaN means
+unknown. With ``doffs = cx_right - cx_left`` (pixels) the depth is ``Z = f * B / (d + doffs)``; where
+``d + doffs <= 0`` or the input is not finite the result is NaN (never ``inf``, never ``1e8``).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Protocol
+
+import numpy as np
+
+__all__ = [
+    "depth_from_disparity",
+    "disparity_from_depth",
+    "points_from_disparity",
+    "check_positive",
+    "check_finite",
+]
+
+
+class _RigLike(Protocol):
+    focal_px: float
+    cx_left: float
+    cy: float
+    baseline_m: float
+    image_size: tuple[int, int]
+
+    @property
+    def doffs(self) -> float: ...
+
+
+def check_positive(name: str, value: Any) -> float:
+    """``value`` as a finite float > 0, else ValueError naming ``name``."""
+    value = check_finite(name, value)
+    if value <= 0.0:
+        raise ValueError(f"`{name}` must be a finite number > 0, got {value!r}")
+    return value
+
+
+def check_finite(name: str, value: Any) -> float:
+    """``value`` as a finite float, else ValueError naming ``name``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"`{name}` must be a real number, got {type(value).__name__} {value!r}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"`{name}` must be finite, got {value!r}")
+    return value
+
+
+def _as_real_array(name: str, values: Any) -> np.ndarray:
+    arr = np.asarray(values)
+    if arr.dtype == np.bool_ or not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)):
+        raise ValueError(f"`{name}` must be an array of real numbers (int or float), got dtype {arr.dtype}")
+    return arr
+
+
+def _finite_float32(values: np.ndarray) -> np.ndarray:
+    """Cast float64 to float32, turning anything that is not finite after the cast into NaN."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = values.astype(np.float32)
+    out[~np.isfinite(out)] = np.nan
+    return out
+
+
+def depth_from_disparity(disparity: Any, focal_px: float, baseline_m: float, doffs: float = 0.0) -> np.ndarray:
+    """Depth in metres from disparity in pixels: ``Z = focal_px * baseline_m / (disparity + doffs)``.
+
+    Parameters
+    ----------
+    disparity : array_like of real numbers, any shape, pixels, NaN where unknown
+        ``x_left - x_right`` in the rectified images.
+    focal_px : float > 0
+        Rectified focal length, pixels.
+    baseline_m : float > 0
+        Distance between the camera centres, metres.
+    doffs : float
+        ``cx_right - cx_left`` of the rectified cameras, pixels (0 for OpenCV's zero-disparity rectification).
+
+    Returns
+    -------
+    depth : float32 array, same shape, metres
+        NaN where the disparity is not finite, where ``disparity + doffs <= 0`` or where the depth does not fit
+        float32.
+
+    Examples
+    --------
+    >>> depth_from_disparity([10.0, 0.0, float("nan")], 1000.0, 0.1)
+    array([10., nan, nan], dtype=float32)
+    """
+    focal_px = check_positive("focal_px", focal_px)
+    baseline_m = check_positive("baseline_m", baseline_m)
+    doffs = check_finite("doffs", doffs)
+    d = _as_real_array("disparity", disparity).astype(np.float64)
+    denom = d + doffs
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        z = np.where(np.isfinite(denom) & (denom > 0.0), (focal_px * baseline_m) / denom, np.nan)
+    return _finite_float32(np.asarray(z))
+
+
+def disparity_from_depth(depth: Any, focal_px: float, baseline_m: float, doffs: float = 0.0) -> np.ndarray:
+    """Disparity in pixels from depth in metres: ``d = focal_px * baseline_m / depth - doffs``.
+
+    Parameters
+    ----------
+    depth : array_like of real numbers, any shape, metres, NaN where unknown
+    focal_px, baseline_m, doffs : as in :func:`depth_from_disparity`
+
+    Returns
+    -------
+    disparity : float32 array, same shape, pixels
+        NaN where the depth is not finite or ``<= 0`` (the inverse of :func:`depth_from_disparity`).
+    """
+    focal_px = check_positive("focal_px", focal_px)
+    baseline_m = check_positive("baseline_m", baseline_m)
+    doffs = check_finite("doffs", doffs)
+    z = _as_real_array("depth", depth).astype(np.float64)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        d = np.where(np.isfinite(z) & (z > 0.0), (focal_px * baseline_m) / z - doffs, np.nan)
+    return _finite_float32(np.asarray(d))
+
+
+def points_from_disparity(disparity: Any, rig: _RigLike) -> np.ndarray:
+    """Per-pixel 3D points (X, Y, Z) in the left rectified camera frame, metres.
+
+    Parameters
+    ----------
+    disparity : (H, W) real array, pixels, NaN where unknown
+        Must match ``rig.image_size`` (width, height); use ``rig.scaled(f)`` for a resized disparity map.
+    rig : RectifiedRig
+        Anything with ``focal_px``, ``cx_left``, ``cy``, ``baseline_m``, ``doffs`` and ``image_size``.
+
+    Returns
+    -------
+    points : (H, W, 3) float32, metres, X right, Y down, Z forward; all three NaN where the depth is unknown.
+    """
+    d = _as_real_array("disparity", disparity)
+    if d.ndim != 2:
+        raise ValueError(f"`disparity` must be a 2-D (H, W) array, got shape {d.shape}")
+    width, height = rig.image_size
+    if d.shape != (height, width):
+        raise ValueError(
+            f"`disparity` shape {d.shape} does not match the rig's image size (width={width}, height={height}); "
+            f"use rig.scaled(factor) for resized images"
+        )
+    f = check_positive("rig.focal_px", rig.focal_px)
+    cx = check_finite("rig.cx_left", rig.cx_left)
+    cy = check_finite("rig.cy", rig.cy)
+    z = depth_from_disparity(d, f, rig.baseline_m, rig.doffs).astype(np.float64)
+    u = np.arange(width, dtype=np.float64)[None, :]
+    v = np.arange(height, dtype=np.float64)[:, None]
+    out = np.empty((height, width, 3), dtype=np.float64)
+    out[..., 0] = (u - cx) * z / f
+    out[..., 1] = (v - cy) * z / f
+    out[..., 2] = z
+    points = _finite_float32(out)
+    points[np.isnan(points).any(axis=-1)] = np.nan
+    return points

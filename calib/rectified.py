@@ -1,0 +1,313 @@
+"""RectifiedRig: the geometry of a rectified stereo pair (what depth and 3D points need)."""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import warnings
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import cv2
+import numpy as np
+
+from calib.errors import CalibrationError
+from calib.geometry import check_finite, depth_from_disparity, points_from_disparity
+
+__all__ = ["RectifiedRig", "RectificationWarning", "check_image_size"]
+
+log = logging.getLogger(__name__)
+
+#: Above this median vertical offset (pixels) `rectify_pair` warns.
+VERTICAL_OFFSET_WARN_PX = 1.0
+
+
+class RectificationWarning(UserWarning):
+    """The rectified pair still has a vertical offset (epipolar lines are not image rows)."""
+
+
+def check_image_size(name: str, value: Any) -> tuple[int, int]:
+    """``(width, height)`` as two positive Python ints, else CalibrationError naming ``name``."""
+    try:
+        items = tuple(value)
+    except TypeError:
+        raise CalibrationError(f"`{name}` must be (width, height), two positive ints, got {value!r}") from None
+    if len(items) != 2:
+        raise CalibrationError(f"`{name}` must be (width, height), two positive ints, got {value!r}")
+    out = []
+    for item in items:
+        if isinstance(item, (bool, np.bool_)):
+            raise CalibrationError(f"`{name}` must be (width, height), two positive ints, got {value!r}")
+        if isinstance(item, (float, np.floating)) and float(item).is_integer():
+            item = int(item)
+        if not isinstance(item, (int, np.integer)) or int(item) <= 0:
+            raise CalibrationError(f"`{name}` must be (width, height), two positive ints, got {value!r}")
+        out.append(int(item))
+    return out[0], out[1]
+
+
+def _check_maps(name: str, maps: Any, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray] | None:
+    if maps is None:
+        return None
+    if not (isinstance(maps, tuple) and len(maps) == 2):
+        raise CalibrationError(f"`{name}` must be a (map1, map2) tuple from cv2.initUndistortRectifyMap, got {type(maps).__name__}")
+    width, height = size
+    if np.shape(maps[0])[:2] != (height, width):
+        raise CalibrationError(f"`{name}` maps have shape {np.shape(maps[0])}, expected (H, W)=({height}, {width}) of the rectified image")
+    return maps
+
+
+@dataclass(frozen=True)
+class RectifiedRig:
+    """Geometry of a rectified stereo pair (row-aligned images).
+
+    Parameters
+    ----------
+    focal_px : float > 0
+        Rectified focal length, pixels (the same for both cameras and both axes).
+    cx_left, cx_right : float
+        Principal point columns of the rectified left and right cameras, pixels.
+    cy : float
+        Principal point row (shared), pixels.
+    baseline_m : float > 0
+        Distance between the camera centres, metres.
+    image_size : (width, height) ints
+        Size of the rectified images.
+    maps_left, maps_right : (map1, map2) or None
+        ``cv2.initUndistortRectifyMap`` outputs that turn raw images into rectified ones (set by
+        :meth:`StereoRig.rectify`); None for data that is already rectified.
+    raw_image_size : (width, height) or None
+        Size of the raw images the maps expect.
+    roi_left, roi_right : (x, y, w, h) or None
+        Regions of the rectified images where every pixel is valid (from ``cv2.stereoRectify``).
+
+    ``doffs = cx_right - cx_left`` and ``Z = focal_px * baseline_m / (d + doffs)``.
+
+    Examples
+    --------
+    >>> rig = RectifiedRig(focal_px=1000.0, cx_left=320.0, cx_right=330.0, cy=240.0, baseline_m=0.1,
+    ...                    image_size=(640, 480))
+    >>> float(rig.depth(np.array([[90.0]]))[0, 0])
+    1.0
+    """
+
+    focal_px: float
+    cx_left: float
+    cx_right: float
+    cy: float
+    baseline_m: float
+    image_size: tuple[int, int]
+    maps_left: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False, compare=False)
+    maps_right: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False, compare=False)
+    raw_image_size: tuple[int, int] | None = field(default=None, compare=False)
+    roi_left: tuple[int, int, int, int] | None = field(default=None, compare=False)
+    roi_right: tuple[int, int, int, int] | None = field(default=None, compare=False)
+
+    def __post_init__(self) -> None:
+        def _num(name: str, positive: bool = False) -> float:
+            try:
+                value = check_finite(name, getattr(self, name))
+            except ValueError as exc:
+                raise CalibrationError(str(exc)) from None
+            if positive and value <= 0.0:
+                raise CalibrationError(f"`{name}` must be > 0, got {value!r}")
+            return value
+
+        object.__setattr__(self, "focal_px", _num("focal_px", positive=True))
+        object.__setattr__(self, "baseline_m", _num("baseline_m", positive=True))
+        for name in ("cx_left", "cx_right", "cy"):
+            object.__setattr__(self, name, _num(name))
+        size = check_image_size("image_size", self.image_size)
+        object.__setattr__(self, "image_size", size)
+        if (self.maps_left is None) != (self.maps_right is None):
+            raise CalibrationError("`maps_left` and `maps_right` must both be given or both be None")
+        object.__setattr__(self, "maps_left", _check_maps("maps_left", self.maps_left, size))
+        object.__setattr__(self, "maps_right", _check_maps("maps_right", self.maps_right, size))
+        if self.maps_left is not None:
+            if self.raw_image_size is None:
+                raise CalibrationError("`raw_image_size` is required when rectification maps are given")
+        if self.raw_image_size is not None:
+            object.__setattr__(self, "raw_image_size", check_image_size("raw_image_size", self.raw_image_size))
+        for name in ("roi_left", "roi_right"):
+            roi = getattr(self, name)
+            if roi is not None:
+                roi = tuple(int(v) for v in roi)
+                if len(roi) != 4 or min(roi) < 0:
+                    raise CalibrationError(f"`{name}` must be (x, y, w, h) with non-negative ints, got {getattr(self, name)!r}")
+                object.__setattr__(self, name, roi)
+        if self.baseline_m > 10.0:
+            log.warning("baseline of %.3f m is unusually large: is it in millimetres? calib works in metres", self.baseline_m)
+
+    # ----------------------------------------------------------------- derived geometry
+    @property
+    def doffs(self) -> float:
+        """``cx_right - cx_left`` in pixels (Middlebury's ``doffs``); 0 for OpenCV zero-disparity rectification."""
+        return self.cx_right - self.cx_left
+
+    @property
+    def Q(self) -> np.ndarray:  # noqa: N802 (OpenCV's name)
+        """4x4 disparity-to-depth matrix as ``cv2.reprojectImageTo3D`` expects it (float64).
+
+        ``[X Y Z W]^T = Q [u v d 1]^T`` gives ``Z / W = focal_px * baseline_m / (d + doffs)``.
+        """
+        b = self.baseline_m
+        return np.array(
+            [
+                [1.0, 0.0, 0.0, -self.cx_left],
+                [0.0, 1.0, 0.0, -self.cy],
+                [0.0, 0.0, 0.0, self.focal_px],
+                [0.0, 0.0, 1.0 / b, self.doffs / b],
+            ]
+        )
+
+    @property
+    def P_left(self) -> np.ndarray:  # noqa: N802
+        """3x4 projection matrix of the rectified left camera (float64)."""
+        return np.array([[self.focal_px, 0.0, self.cx_left, 0.0], [0.0, self.focal_px, self.cy, 0.0], [0.0, 0.0, 1.0, 0.0]])
+
+    @property
+    def P_right(self) -> np.ndarray:  # noqa: N802
+        """3x4 projection matrix of the rectified right camera, ``P[0, 3] = -focal_px * baseline_m`` (float64)."""
+        p = self.P_left
+        p[0, 2] = self.cx_right
+        p[0, 3] = -self.focal_px * self.baseline_m
+        return p
+
+    @property
+    def has_maps(self) -> bool:
+        """True when :meth:`rectify_pair` remaps raw images (rig made by ``StereoRig.rectify``)."""
+        return self.maps_left is not None
+
+    def depth(self, disparity: Any) -> np.ndarray:
+        """Depth in metres, ``(H, W) float32``, NaN where unknown (see :func:`calib.depth_from_disparity`).
+
+        ``disparity`` must come from images of ``image_size``; for resized images use :meth:`scaled` first.
+        """
+        return depth_from_disparity(disparity, self.focal_px, self.baseline_m, self.doffs)
+
+    def disparity(self, depth: Any) -> np.ndarray:
+        """Disparity in pixels (float32, NaN where unknown) of a depth map in metres."""
+        from calib.geometry import disparity_from_depth
+
+        return disparity_from_depth(depth, self.focal_px, self.baseline_m, self.doffs)
+
+    def points(self, disparity: Any) -> np.ndarray:
+        """``(H, W, 3) float32`` X, Y, Z in metres, left rectified camera frame (X right, Y down, Z forward)."""
+        return points_from_disparity(disparity, self)
+
+    def scaled(self, factor: float) -> RectifiedRig:
+        """The rig for images resized by ``factor`` (e.g. 0.5 for half size), as ``cv2.resize`` does it.
+
+        Focal length scales by ``factor``; principal points by ``(c + 0.5) * factor - 0.5`` (pixel centres);
+        image size is rounded. The baseline is unchanged. Rectification maps are dropped: the scaled rig
+        describes already rectified, resized images.
+        """
+        try:
+            factor = check_finite("factor", factor)
+        except ValueError as exc:
+            raise CalibrationError(str(exc)) from None
+        if factor <= 0.0:
+            raise CalibrationError(f"`factor` must be > 0, got {factor!r}")
+        width, height = self.image_size
+        new_size = (int(round(width * factor)), int(round(height * factor)))
+        if min(new_size) < 1:
+            raise CalibrationError(f"`factor` {factor!r} shrinks the {width}x{height} image to nothing")
+        return RectifiedRig(
+            focal_px=self.focal_px * factor,
+            cx_left=(self.cx_left + 0.5) * factor - 0.5,
+            cx_right=(self.cx_right + 0.5) * factor - 0.5,
+            cy=(self.cy + 0.5) * factor - 0.5,
+            baseline_m=self.baseline_m,
+            image_size=new_size,
+        )
+
+    def without_maps(self) -> RectifiedRig:
+        """The same geometry for images that are already rectified (no remapping)."""
+        return replace(self, maps_left=None, maps_right=None, raw_image_size=None)
+
+    # ----------------------------------------------------------------- images
+    def rectify_pair(self, left: np.ndarray, right: np.ndarray, *, check_offset: bool | None = None,
+                     interpolation: int = cv2.INTER_LINEAR) -> tuple[np.ndarray, np.ndarray]:
+        """Rectify a raw pair (when the rig has maps) or check an already rectified one.
+
+        Parameters
+        ----------
+        left, right : (H, W) or (H, W, C) images of the same shape
+            Raw images of ``raw_image_size`` when the rig has maps, else rectified images of ``image_size``.
+        check_offset : bool or None
+            Measure the residual vertical offset with feature matching (:func:`calib.vertical_offset`) and
+            warn (``RectificationWarning`` and a log message) when it is above 1 px. None: only when
+            remapping.
+
+        Returns
+        -------
+        left, right : rectified images, same dtype, size ``image_size``.
+        """
+        left, right = np.asarray(left), np.asarray(right)
+        for name, img in (("left", left), ("right", right)):
+            if img.ndim not in (2, 3) or img.size == 0:
+                raise ValueError(f"`{name}` must be an (H, W) or (H, W, C) image, got shape {img.shape}")
+        if left.shape != right.shape:
+            raise ValueError(f"`left` and `right` must have the same shape, got {left.shape} and {right.shape}")
+        expected = self.raw_image_size if self.has_maps else self.image_size
+        width, height = expected
+        if left.shape[:2] != (height, width):
+            what = "raw" if self.has_maps else "rectified"
+            raise ValueError(
+                f"images are {left.shape[1]}x{left.shape[0]} but the rig expects {what} images of {width}x{height}"
+                + ("" if self.has_maps else "; use rig.scaled(factor) for resized images")
+            )
+        if self.has_maps:
+            left = cv2.remap(left, *self.maps_left, interpolation)  # type: ignore[misc]
+            right = cv2.remap(right, *self.maps_right, interpolation)  # type: ignore[misc]
+        if check_offset if check_offset is not None else self.has_maps:
+            from calib.features import vertical_offset
+
+            offset = vertical_offset(left, right)
+            if math.isnan(offset):
+                log.info("rectify_pair: too few feature matches to measure the vertical offset")
+            elif offset > VERTICAL_OFFSET_WARN_PX:
+                msg = (f"rectified pair has a median vertical offset of {offset:.2f} px (> {VERTICAL_OFFSET_WARN_PX} px): "
+                       "the calibration does not fit these images; disparities will be wrong")
+                log.warning(msg)
+                warnings.warn(msg, RectificationWarning, stacklevel=2)
+            else:
+                log.debug("rectify_pair: median vertical offset %.2f px", offset)
+        return left, right
+
+    # ----------------------------------------------------------------- readers / writers
+    @classmethod
+    def from_middlebury(cls, calib_txt: str | os.PathLike[str], *, image_size: tuple[int, int] | None = None) -> RectifiedRig:
+        """Middlebury 2014/2021 ``calib.txt`` (``cam0``, ``cam1``, ``doffs``, ``baseline`` in **mm**, width, height)."""
+        from calib.formats import read_middlebury
+
+        return read_middlebury(calib_txt, image_size=image_size)
+
+    @classmethod
+    def from_kitti(cls, calib_txt: str | os.PathLike[str], *, left: int = 2, right: int = 3,
+                   image_size: tuple[int, int] | None = None) -> RectifiedRig:
+        """KITTI object ``calib.txt`` (``P0:``..``P3:``) or raw ``calib_cam_to_cam.txt`` (``P_rect_0N``)."""
+        from calib.formats import read_kitti_rectified
+
+        return read_kitti_rectified(calib_txt, left=left, right=right, image_size=image_size)
+
+    @classmethod
+    def from_oakd_json(cls, path: str | os.PathLike[str]) -> RectifiedRig:
+        """The stereodemo / OAK-D JSON (``fx``, ``cx0``, ``cx1``, ``cy``, ``baseline_meters``, width, height)."""
+        from calib.formats import read_oakd_json
+
+        return read_oakd_json(path)
+
+    @classmethod
+    def from_opencv_yaml(cls, path: str | os.PathLike[str], *, image_size: tuple[int, int] | None = None) -> RectifiedRig:
+        """OpenCV FileStorage YAML/XML with ``P1`` and ``P2`` (or ``Q``) of an already rectified pair."""
+        from calib.formats import read_opencv_rectified
+
+        return read_opencv_rectified(path, image_size=image_size)
+
+    def to_opencv_yaml(self, path: str | os.PathLike[str]) -> None:
+        """Write ``P1``, ``P2``, ``Q`` and the image size to an OpenCV YAML (or XML, by extension), atomically."""
+        from calib.formats import write_rectified_opencv
+
+        write_rectified_opencv(self, path)
