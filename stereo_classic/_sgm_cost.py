@@ -1,0 +1,266 @@
+"""Matching costs for the SGM kernels: census + Hamming, and SAD on a brightness-robust prefilter.
+
+Layout: disparity innermost and contiguous. Disparity index ``k`` in ``[0, D)`` stands for the
+disparity ``min_disparity + k``; the left pixel ``x`` is matched with the right pixel
+``x - min_disparity - k``. Right-image rows are stored *reversed* (``rrev[j]`` holds right column
+``K - j``), so that the D candidates of one left pixel are the contiguous slice ``rrev[j0:j0 + D]``
+(straight vector loads, no gathers).
+
+Costs where ``x - min_disparity - k`` falls outside the image are replaced by ``invalid_cost``
+(see ``_sgm_core``), never computed from padding.
+
+SAD cost (the paper's n x n window, with its "brightness processing"): per-pixel difference
+``|sobel_L - sobel_R| + |I_L - I_R| // 4`` where ``sobel`` is the horizontal Sobel response clipped
+to +-31 (OpenCV StereoSGBM's prefilter), summed over ``block_size x block_size`` with running
+sums (a column sum per (x, k) updated by one row in, one row out; a running sum along x), borders
+replicated, then right-shifted by ``sad_shift`` so that the SGM sums fit int16.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ._sgm_intrinsics import absdiff16, add16, popcnt16, shr16, sub16
+
+__all__ = [
+    "SOBEL_CAP",
+    "SAD_PIXEL_MAX",
+    "census_transform",
+    "census_bits",
+    "sad_prefilter",
+    "cost_volume_kernel",
+]
+
+SOBEL_CAP = 31
+SAD_PIXEL_MAX = 2 * SOBEL_CAP + 255 // 4  # largest per-pixel SAD term (125)
+
+
+def census_bits(census_window: tuple[int, int]) -> int:
+    """Number of bits of a census code (window pixels minus the centre)."""
+    w, h = census_window
+    return w * h - 1
+
+
+@njit(cache=True, nogil=True)
+def _census_kernel(padded, hw, hh, out):  # pragma: no cover - numba
+    H, W = out.shape
+    for y in range(H):
+        row = out[y]
+        row[:] = 0
+        centre = padded[y + hh, hw:hw + W]
+        for dy in range(-hh, hh + 1):
+            for dx in range(-hw, hw + 1):
+                if dy == 0 and dx == 0:
+                    continue
+                nb = padded[y + hh + dy, hw + dx:hw + dx + W]
+                for x in range(W):
+                    row[x] = (row[x] << np.uint64(1)) | np.uint64(nb[x] < centre[x])
+
+
+def census_transform(image: np.ndarray, census_window: tuple[int, int]) -> np.ndarray:
+    """Census codes: bit set where the neighbour is darker than the centre, borders replicated.
+
+    Parameters
+    ----------
+    image : (H, W) uint8
+    census_window : (width, height), both odd, ``width * height - 1 <= 64``
+
+    Returns
+    -------
+    (H, W) uint64 codes.
+    """
+    w, h = census_window
+    padded = np.pad(image, ((h // 2, h // 2), (w // 2, w // 2)), mode="edge")
+    out = np.empty(image.shape, np.uint64)
+    _census_kernel(padded, w // 2, h // 2, out)
+    return out
+
+
+def sad_prefilter(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The two channels the SAD cost compares.
+
+    Returns ``(sobel, intensity)``, both (H, W) int16: ``sobel`` is the horizontal 3x3 Sobel
+    response clipped to +-31 and shifted to ``[0, 62]`` (replicated borders); ``intensity`` is the
+    image itself.
+    """
+    img = image.astype(np.int16)
+    p = np.pad(img, 1, mode="edge")
+    gx = (p[:-2, 2:] - p[:-2, :-2]) + 2 * (p[1:-1, 2:] - p[1:-1, :-2]) + (p[2:, 2:] - p[2:, :-2])
+    sob = (np.clip(gx, -SOBEL_CAP, SOBEL_CAP) + SOBEL_CAP).astype(np.int16)
+    return np.ascontiguousarray(sob), np.ascontiguousarray(img)
+
+
+# ----------------------------------------------------------------------------------------------
+# Per-row helpers shared by the fused SGM passes and by cost_volume_kernel (so the volume that the
+# tests compare with the numpy reference is computed by exactly the code the fast path runs).
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _clamp(i, n):  # pragma: no cover - numba
+    return 0 if i < 0 else (n - 1 if i >= n else i)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def census_reverse_row(rrow, rrev, dmin):  # pragma: no cover - numba
+    """rrev[j] = rrow[clamp(W - 1 - dmin - j)] for j in [0, len(rrev))."""
+    W = rrow.shape[0]
+    K = W - 1 - dmin
+    for j in range(rrev.shape[0]):
+        rrev[j] = rrow[_clamp(K - j, W)]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def census_pixel_cost(lc, rrev, x, C):  # pragma: no cover - numba
+    """C[k] = popcount(lc ^ census_right[x - dmin - k]) (rrev from census_reverse_row)."""
+    D = C.shape[0]
+    W1 = rrev.shape[0] - D  # = W - 1
+    j0 = W1 - x
+    r = rrev[j0:j0 + D]
+    for k in range(D):
+        C[k] = popcnt16(lc ^ r[k])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def sad_reverse_row(srow, irow, srev, irev, dmin, h):  # pragma: no cover - numba
+    """srev[j] = srow[clamp(W - 1 + h - dmin - j)], same for the intensity row."""
+    W = srow.shape[0]
+    K = W - 1 + h - dmin
+    for j in range(srev.shape[0]):
+        c = _clamp(K - j, W)
+        srev[j] = srow[c]
+        irev[j] = irow[c]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def sad_colsum_row(colsum, add, lsrow, lirow, srev, irev, h):  # pragma: no cover - numba
+    """colsum[x' + h, k] (+/-)= AD(x', x' - dmin - k) for x' in [-h, W + h), one image row.
+
+    AD = |sobel_L - sobel_R| + |I_L - I_R| // 4. srev/irev come from sad_reverse_row for the
+    same row.
+    """
+    W = lsrow.shape[0]
+    D = colsum.shape[1]
+    two = np.int16(2)
+    for xp in range(-h, W + h):
+        c = _clamp(xp, W)
+        ls = lsrow[c]
+        li = lirow[c]
+        j0 = W - 1 + h - xp
+        rs = srev[j0:j0 + D]
+        ri = irev[j0:j0 + D]
+        cs = colsum[xp + h]
+        if add:
+            for k in range(D):
+                ad = add16(absdiff16(ls, rs[k]), shr16(absdiff16(li, ri[k]), two))
+                cs[k] = add16(cs[k], ad)
+        else:
+            for k in range(D):
+                ad = add16(absdiff16(ls, rs[k]), shr16(absdiff16(li, ri[k]), two))
+                cs[k] = sub16(cs[k], ad)
+
+
+@njit(cache=True, nogil=True)
+def sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h):  # pragma: no cover
+    """colsum = sum of AD rows clamp(y - h) .. clamp(y + h)."""
+    H = lsob.shape[0]
+    colsum[:, :] = 0
+    for yy in range(y - h, y + h + 1):
+        yc = _clamp(yy, H)
+        sad_reverse_row(rsob[yc], rint[yc], srev, irev, dmin, h)
+        sad_colsum_row(colsum, True, lsob[yc], lint[yc], srev, irev, h)
+
+
+@njit(cache=True, nogil=True)
+def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h):  # pragma: no cover
+    """Move the column window from row y - step to row y (add row y + step*h, drop y - step*(h+1))."""
+    H = lsob.shape[0]
+    yin = _clamp(y + step * h, H)
+    yout = _clamp(y - step * (h + 1), H)
+    if yin == yout:
+        return
+    sad_reverse_row(rsob[yin], rint[yin], srev, irev, dmin, h)
+    sad_colsum_row(colsum, True, lsob[yin], lint[yin], srev, irev, h)
+    sad_reverse_row(rsob[yout], rint[yout], srev, irev, dmin, h)
+    sad_colsum_row(colsum, False, lsob[yout], lint[yout], srev, irev, h)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def sad_hsum_init(hsum, colsum, x, h):  # pragma: no cover - numba
+    """hsum[k] = sum of colsum over x' in [x - h, x + h] (colsum row index x' + h)."""
+    D = hsum.shape[0]
+    hsum[:] = 0
+    for xp in range(x - h, x + h + 1):
+        cs = colsum[xp + h]
+        for k in range(D):
+            hsum[k] += cs[k]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def sad_hsum_advance(hsum, colsum, x, step, h):  # pragma: no cover - numba
+    """Move the row window from x - step to x."""
+    D = hsum.shape[0]
+    cin = colsum[x + step * h + h]
+    cout = colsum[x - step * (h + 1) + h]
+    for k in range(D):
+        hsum[k] += np.int32(cin[k]) - np.int32(cout[k])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def sad_pixel_cost(hsum, shift, cmax, C):  # pragma: no cover - numba
+    """C[k] = min(hsum[k] >> shift, cmax) as int16."""
+    D = C.shape[0]
+    for k in range(D):
+        v = hsum[k] >> shift
+        C[k] = np.int16(v if v < cmax else cmax)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def fill_invalid(C, x, W, dmin, cinv):  # pragma: no cover - numba
+    """Set C[k] = cinv where x - dmin - k is outside [0, W); return (k_lo, k_hi) valid, inclusive."""
+    D = C.shape[0]
+    k_lo = x - dmin - W + 1
+    if k_lo < 0:
+        k_lo = 0
+    k_hi = x - dmin
+    if k_hi > D - 1:
+        k_hi = D - 1
+    if k_lo > k_hi:
+        C[:] = cinv
+        return k_lo, k_hi
+    for k in range(0, k_lo):
+        C[k] = cinv
+    for k in range(k_hi + 1, D):
+        C[k] = cinv
+    return k_lo, k_hi
+
+
+@njit(cache=True, nogil=True)
+def cost_volume_kernel(kind, lcode, rcode, lsob, lint, rsob, rint, dmin, h, shift, cmax, cinv, out):  # pragma: no cover
+    """Fill out (H, W, D) int16 with the cost the fused passes use. kind 0 = census, 1 = SAD."""
+    H, W, D = out.shape
+    if kind == 0:
+        rrev = np.empty(W + D - 1, np.uint64)
+        for y in range(H):
+            census_reverse_row(rcode[y], rrev, dmin)
+            for x in range(W):
+                census_pixel_cost(lcode[y, x], rrev, x, out[y, x])
+                fill_invalid(out[y, x], x, W, dmin, cinv)
+    else:
+        L = W + 2 * h + D - 1
+        srev = np.empty(L, np.int16)
+        irev = np.empty(L, np.int16)
+        colsum = np.zeros((W + 2 * h, D), np.int16)
+        hsum = np.zeros(D, np.int32)
+        for y in range(H):
+            if y == 0:
+                sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h)
+            else:
+                sad_colsum_advance(colsum, y, 1, lsob, lint, rsob, rint, srev, irev, dmin, h)
+            for x in range(W):
+                if x == 0:
+                    sad_hsum_init(hsum, colsum, x, h)
+                else:
+                    sad_hsum_advance(hsum, colsum, x, 1, h)
+                sad_pixel_cost(hsum, shift, cmax, out[y, x])
+                fill_invalid(out[y, x], x, W, dmin, cinv)

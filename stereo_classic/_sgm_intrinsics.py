@@ -1,0 +1,107 @@
+"""int16 arithmetic and popcount as LLVM operations, for the SGM kernels.
+
+numba promotes ``int16 + int16`` to int64, which makes LLVM vectorise the aggregation loops 4x
+narrower than it could (measured: 1.7 G path updates/s with plain int16 code, 6.4 G/s with these).
+These intrinsics keep the arithmetic in 16 bits. They wrap around on overflow like C; the callers
+keep every value inside int16 by construction (see ``_sgm_core.check_penalties``).
+"""
+
+from __future__ import annotations
+
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
+
+__all__ = ["add16", "sub16", "min16", "max16", "absdiff16", "shr16", "popcnt16"]
+
+
+def _check_int16(*args: types.Type) -> None:
+    for arg in args:
+        if arg != types.int16:
+            raise TypeError(f"int16 intrinsic needs int16 arguments, got {arg}")
+
+
+@intrinsic
+def add16(typingctx, a, b):
+    """``a + b`` in int16 (wraps on overflow)."""
+    _check_int16(a, b)
+
+    def codegen(context, builder, signature, args):
+        return builder.add(args[0], args[1])
+
+    return types.int16(types.int16, types.int16), codegen
+
+
+@intrinsic
+def sub16(typingctx, a, b):
+    """``a - b`` in int16 (wraps on overflow)."""
+    _check_int16(a, b)
+
+    def codegen(context, builder, signature, args):
+        return builder.sub(args[0], args[1])
+
+    return types.int16(types.int16, types.int16), codegen
+
+
+@intrinsic
+def min16(typingctx, a, b):
+    """``min(a, b)`` for int16."""
+    _check_int16(a, b)
+
+    def codegen(context, builder, signature, args):
+        a, b = args
+        return builder.select(builder.icmp_signed("<", a, b), a, b)
+
+    return types.int16(types.int16, types.int16), codegen
+
+
+@intrinsic
+def max16(typingctx, a, b):
+    """``max(a, b)`` for int16."""
+    _check_int16(a, b)
+
+    def codegen(context, builder, signature, args):
+        a, b = args
+        return builder.select(builder.icmp_signed(">", a, b), a, b)
+
+    return types.int16(types.int16, types.int16), codegen
+
+
+@intrinsic
+def absdiff16(typingctx, a, b):
+    """``|a - b|`` for int16 values whose difference fits int16."""
+    _check_int16(a, b)
+
+    def codegen(context, builder, signature, args):
+        a, b = args
+        d1 = builder.sub(a, b)
+        d2 = builder.sub(b, a)
+        return builder.select(builder.icmp_signed(">", d1, d2), d1, d2)
+
+    return types.int16(types.int16, types.int16), codegen
+
+
+@intrinsic
+def shr16(typingctx, a, n):
+    """Arithmetic ``a >> n`` for int16."""
+    _check_int16(a, n)
+
+    def codegen(context, builder, signature, args):
+        return builder.ashr(args[0], args[1])
+
+    return types.int16(types.int16, types.int16), codegen
+
+
+@intrinsic
+def popcnt16(typingctx, x):
+    """Number of set bits of a uint64, as int16 (``llvm.ctpop.i64``, vectorises to vpopcntq)."""
+    if x != types.uint64:
+        raise TypeError(f"popcnt16 needs a uint64 argument, got {x}")
+
+    def codegen(context, builder, signature, args):
+        i64 = ir.IntType(64)
+        fn = builder.module.declare_intrinsic("llvm.ctpop", [i64])
+        count = builder.call(fn, [args[0]])
+        return builder.trunc(count, ir.IntType(16))
+
+    return types.int16(types.uint64), codegen

@@ -1,0 +1,180 @@
+"""Slow, obvious numpy reference of the SGM matcher, for the tests of the numba kernels.
+
+Everything here is written for clarity, not speed (pixel or row loops in Python, int64 arithmetic):
+the census transform and both matching costs, one path's recursion for any of the 8 directions,
+and the winner selection (WTA, uniqueness, subpixel, right view, left-right check). Conventions are
+those of ``_sgm_core``: entry ``[y, x, k]`` is disparity ``min_disparity + k``, i.e. the left pixel
+``x`` against the right pixel ``x - min_disparity - k``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._sgm_core import PATH_STEPS, cost_scale
+
+__all__ = ["census_reference", "cost_volume_reference", "path_reference", "sum_reference", "select_reference"]
+
+
+def census_reference(image: np.ndarray, census_window: tuple[int, int]) -> np.ndarray:
+    """(H, W) uint64: one bit per window pixel except the centre, set where it is darker than the
+    centre; image borders replicated."""
+    w, h = census_window
+    H, W = image.shape
+    img = image.astype(np.int64)
+    code = np.zeros((H, W), np.uint64)
+    ys = np.arange(H)[:, None]
+    xs = np.arange(W)[None, :]
+    for dy in range(-(h // 2), h // 2 + 1):
+        for dx in range(-(w // 2), w // 2 + 1):
+            if dy == 0 and dx == 0:
+                continue
+            nb = img[np.clip(ys + dy, 0, H - 1), np.clip(xs + dx, 0, W - 1)]
+            code = (code << np.uint64(1)) | (nb < img).astype(np.uint64)
+    return code
+
+
+def _sobel_reference(image: np.ndarray) -> np.ndarray:
+    img = image.astype(np.int64)
+    H, W = img.shape
+    out = np.zeros((H, W), np.int64)
+    for y in range(H):
+        for x in range(W):
+            def at(yy, xx):
+                return img[min(max(yy, 0), H - 1), min(max(xx, 0), W - 1)]
+            g = (at(y - 1, x + 1) - at(y - 1, x - 1)) + 2 * (at(y, x + 1) - at(y, x - 1)) + (at(y + 1, x + 1) - at(y + 1, x - 1))
+            out[y, x] = min(max(g, -31), 31) + 31
+    return out
+
+
+def cost_volume_reference(left, right, *, cost="census", min_disparity=0, num_disparities=16, block_size=5,
+                          census_window=(9, 7), p2=120) -> np.ndarray:
+    """(H, W, D) int64 cost, invalid disparities (match outside the right image) = cmax + 2*p2s + 1."""
+    H, W = left.shape
+    D = num_disparities
+    shift, cmax = cost_scale(cost, block_size, census_window, p2)
+    cinv = cmax + 2 * (p2 >> shift) + 1
+    out = np.full((H, W, D), cinv, np.int64)
+    if cost == "census":
+        cl = census_reference(left, census_window)
+        cr = census_reference(right, census_window)
+        for y in range(H):
+            for x in range(W):
+                for k in range(D):
+                    xr = x - min_disparity - k
+                    if 0 <= xr < W:
+                        out[y, x, k] = bin(int(cl[y, x]) ^ int(cr[y, xr])).count("1")
+        return out
+    sl, sr = _sobel_reference(left), _sobel_reference(right)
+    il, ir = left.astype(np.int64), right.astype(np.int64)
+    r = block_size // 2
+
+    def cy(v):
+        return min(max(v, 0), H - 1)
+
+    def cx(v):
+        return min(max(v, 0), W - 1)
+
+    for y in range(H):
+        for x in range(W):
+            for k in range(D):
+                xr = x - min_disparity - k
+                if not 0 <= xr < W:
+                    continue
+                total = 0
+                for dy in range(-r, r + 1):
+                    for dx in range(-r, r + 1):
+                        yy, xl, xrr = cy(y + dy), cx(x + dx), cx(xr + dx)
+                        total += abs(sl[yy, xl] - sr[yy, xrr]) + abs(il[yy, xl] - ir[yy, xrr]) // 4
+                out[y, x, k] = min(total >> shift, cmax)
+    return out
+
+
+def path_reference(C: np.ndarray, direction: int, p1: int, p2: int, image: np.ndarray | None = None) -> np.ndarray:
+    """L_r for one direction (index into ``_sgm_core.PATH_STEPS``), int64 (H, W, D).
+
+    L(p, d) = C(p, d) + min(L(p-r, d), L(p-r, d-1) + P1, L(p-r, d+1) + P1, min_k L(p-r, k) + P2)
+              - min_k L(p-r, k),   and L(p) = C(p) where p - r is outside the image.
+    With ``image`` given, P2 is adaptive: max(P1, P2 // (1 + |I(p) - I(p-r)|)).
+    """
+    H, W, D = C.shape
+    dx, dy = PATH_STEPS[direction]
+    L = np.zeros((H, W, D), np.int64)
+    ys = range(H) if dy >= 0 else range(H - 1, -1, -1)
+    xs = list(range(W)) if dx >= 0 else list(range(W - 1, -1, -1))
+    big = 1 << 40
+    for y in ys:
+        for x in xs:
+            yp, xp = y - dy, x - dx
+            if not (0 <= yp < H and 0 <= xp < W):
+                L[y, x] = C[y, x]
+                continue
+            prev = L[yp, xp]
+            mp = prev.min()
+            p2e = p2
+            if image is not None:
+                p2e = max(p1, p2 // (1 + abs(int(image[y, x]) - int(image[yp, xp]))))
+            best = np.minimum(prev, mp + p2e)
+            lower = np.concatenate([[big], prev[:-1]]) + p1
+            upper = np.concatenate([prev[1:], [big]]) + p1
+            best = np.minimum(best, np.minimum(lower, upper))
+            L[y, x] = C[y, x] + best - mp
+    return L
+
+
+def sum_reference(C: np.ndarray, path_mask: int, p1: int, p2: int, image: np.ndarray | None = None) -> np.ndarray:
+    """Sum of path_reference over the directions whose bit is set in path_mask."""
+    S = np.zeros(C.shape, np.int64)
+    for r in range(8):
+        if path_mask >> r & 1:
+            S += path_reference(C, r, p1, p2, image)
+    return S
+
+
+def select_reference(S: np.ndarray, min_disparity: int, *, uniqueness=0.0, lr_check=1.0, subpixel=True):
+    """(disparity, disparity_right) float32 from a complete sum volume, pixel by pixel.
+
+    Valid disparities of left pixel x: indices k with 0 <= x - min_disparity - k < W. Winner = first
+    index of the minimum; uniqueness rejects when some valid k with |k - best| >= 2 has
+    S * (1 - uniqueness) < S_best; subpixel: parabola through best - 1, best, best + 1 when both are
+    valid and the curvature is positive. Right view: for right pixel xr, argmin over k of
+    S[y, xr + min_disparity + k, k] (first k on ties). LR: reject when |best - right_best(x - dmin -
+    best)| > lr_check.
+    """
+    H, W, D = S.shape
+    dmin = min_disparity
+    disp = np.full((H, W), np.nan, np.float32)
+    dispR = np.full((H, W), np.nan, np.float32)
+    bestk = np.full((H, W), -1, np.int64)
+    rbest = np.full((H, W), -1, np.int64)
+    for y in range(H):
+        for xr in range(W):
+            cands = [(int(S[y, xr + dmin + k, k]), k) for k in range(D) if 0 <= xr + dmin + k < W]
+            if cands:
+                rbest[y, xr] = min(cands)[1]
+                dispR[y, xr] = dmin + rbest[y, xr]
+        for x in range(W):
+            valid = [k for k in range(D) if 0 <= x - dmin - k < W]
+            if not valid:
+                continue
+            vals = [int(S[y, x, k]) for k in valid]
+            m = min(vals)
+            b = valid[vals.index(m)]
+            bestk[y, x] = b
+            if uniqueness > 0:
+                far = [int(S[y, x, k]) for k in valid if abs(k - b) >= 2]
+                if far and float(min(far)) * (1.0 - uniqueness) < float(m):
+                    continue
+            off = 0.0
+            if subpixel and (b - 1) in valid and (b + 1) in valid:
+                sm, sp = int(S[y, x, b - 1]), int(S[y, x, b + 1])
+                den = sm + sp - 2 * m
+                if den > 0:
+                    off = (sm - sp) / (2.0 * den)
+            d = np.float32(dmin + b + off)
+            if lr_check is not None:
+                xr = x - dmin - b
+                if abs(b - rbest[y, xr]) > lr_check:
+                    continue
+            disp[y, x] = d
+    return disp, dispR
