@@ -193,7 +193,10 @@ def read_image(path: PathLike, *, grayscale: bool = False) -> np.ndarray:
     p = _existing_file(path, "image")
     data = np.fromfile(p, dtype=np.uint8)
     flags = cv2.IMREAD_ANYDEPTH | (cv2.IMREAD_GRAYSCALE if grayscale else cv2.IMREAD_COLOR)
-    image = cv2.imdecode(data, flags)
+    try:
+        image = cv2.imdecode(data, flags)
+    except cv2.error:
+        image = None
     if image is None or image.size == 0:
         raise FileFormatError(
             f"cannot decode image {p} ({data.size} bytes): not an image format OpenCV reads, or the "
@@ -363,7 +366,10 @@ def write_pfm(path: PathLike, array: np.ndarray, *, byteorder: str = "little") -
 def _read_single_channel(path: PathLike, what: str) -> tuple[Path, np.ndarray]:
     p = _existing_file(path, what)
     data = np.fromfile(p, dtype=np.uint8)
-    image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    try:
+        image = cv2.imdecode(data, cv2.IMREAD_UNCHANGED)
+    except cv2.error:
+        image = None
     if image is None or image.size == 0:
         raise FileFormatError(f"cannot decode {what} {p}: not a PNG/PGM OpenCV reads, or truncated/corrupt")
     if image.ndim == 3:
