@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -201,6 +202,13 @@ def _check_pair(left: Any, right: Any, params: SGMParams) -> tuple[np.ndarray, n
     return left_arr, right_arr
 
 
+def _check_penalties(params: SGMParams) -> None:
+    """The kernels' own limit on P1/P2 (int16 sums), checked before anything is allocated."""
+    check = getattr(_core(), "check_penalties", None)
+    if check is not None:
+        check(params.cost, params.block_size, params.census_window, params.effective_p1, params.effective_p2)
+
+
 def _check_finite(name: str, arr: np.ndarray) -> None:
     if arr.dtype.kind != "f":
         return
@@ -291,16 +299,17 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
         raise ValueError(f"`image_shape` must be (H, W) or (H, W, C) of non-negative integers, got {image_shape!r}")
     height, width = int(image_shape[0]), int(image_shape[1])
     pixels = height * width
+    # the kernels: sum volume, their outputs (left and right float32 disparity), cost inputs, row buffers
     core = _core().memory_bytes(height, width, params.num_disparities, paths=params.paths,
-                                lr_check=params.lr_check is not None)
+                                lr_check=params.lr_check is not None, cost=params.cost,
+                                block_size=params.block_size)
     conversion = 2 * pixels  # the two uint8 grey images
     if np.dtype(dtype) != np.uint8:
         conversion += 3 * 8 * pixels  # float64 grey of one image and the mapping temporary, both images
-    outputs = 2 * 4 * pixels  # left and right float32 disparity
     post = (4 + 2 + 4 + 1) * pixels  # speckle: float32 copy, int16 scaled copy, masks
     if params.fill_holes:
         post += (5 * 8 + 4 * 4) * pixels  # row indices (int64) and float temporaries of the fill
-    return int(core + conversion + outputs + post)
+    return int(core + conversion + post)
 
 
 def _check_memory(shape: tuple[int, ...], dtype: Any, params: SGMParams) -> int:
@@ -337,6 +346,7 @@ def _border_mask(shape: tuple[int, int], params: SGMParams) -> np.ndarray:
 def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None = None) -> DisparityMap:
     t0 = time.perf_counter()
     left_arr, right_arr = _check_pair(left, right, params)
+    _check_penalties(params)
     key = (left_arr.shape, left_arr.dtype)
     if memory_checked is None or key not in memory_checked:
         _check_memory(left_arr.shape, left_arr.dtype, params)
@@ -351,8 +361,8 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         gray_left, gray_right, cost=params.cost, min_disparity=params.min_disparity,
         num_disparities=params.num_disparities, block_size=params.block_size, census_window=params.census_window,
         p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.adaptive_p2,
-        uniqueness=params.uniqueness, lr_check=params.lr_check, subpixel=params.subpixel,
-        threads=params.threads)
+        uniqueness=params.uniqueness / 100.0, lr_check=params.lr_check, subpixel=params.subpixel,
+        threads=params.threads if params.threads is not None else (os.cpu_count() or 1))
     t2 = time.perf_counter()
 
     disparity = np.asarray(disparity, dtype=np.float32)

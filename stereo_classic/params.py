@@ -36,8 +36,9 @@ COSTS = ("census", "sad")
 MAX_BLOCK_SIZE = 21
 #: Largest accepted disparity range; far above any real camera and image, it only keeps the int16 kernels safe.
 MAX_NUM_DISPARITIES = 4096
-#: Largest accepted P1 / P2: path costs are int16 and must not saturate on a single step.
-MAX_PENALTY = 4000
+#: Largest accepted P1 / P2 here; the kernels check the tighter limit of their int16 sums per cost
+#: when matching (e.g. P2 <= 1344 for census 9x7), before allocating anything.
+MAX_PENALTY = 32767
 #: Census windows whose bit string fits the 64-bit kernel (width * height - 1 <= 64 bits).
 _MAX_CENSUS_BITS = 64
 
@@ -145,7 +146,8 @@ class SGMParams:
     paths : {8, 4}
         Number of aggregation directions. Default 8.
     threads : int or None
-        Worker threads for the kernels; None = all threads numba may use. Default None.
+        Worker threads for the kernels; None = one per CPU. The kernels currently use at most 2
+        (the forward and the backward pass run concurrently). Default None.
     memory_limit : int or None
         Refuse inputs whose estimated working memory exceeds this many bytes (MemoryBudgetError).
         None: ``$STEREO_CLASSIC_MEMORY_LIMIT`` or 50 % of physical RAM.

@@ -1,0 +1,138 @@
+"""``python -m stereo_classic disparity``: files written, options passed through, usage errors."""
+
+from __future__ import annotations
+
+import importlib
+import types
+
+import cv2
+import numpy as np
+import pytest
+
+from stereo_classic import matcher as matcher_mod
+from stereo_classic.cli import main
+
+def _core_ready() -> bool:
+    try:
+        core = importlib.import_module("stereo_classic._sgm_core")
+    except ImportError:
+        return False
+    return all(hasattr(core, name) for name in ("sgm_match", "memory_bytes"))
+
+
+HAVE_CORE = _core_ready()
+
+
+@pytest.fixture(autouse=True)
+def _kernels(monkeypatch):
+    """While the kernels are absent, use the numpy stand-in of test_sgm_api (API plumbing only)."""
+    if not HAVE_CORE:
+        from test_sgm_api import _fallback_match, _fallback_memory
+
+        fake = types.SimpleNamespace(sgm_match=_fallback_match, memory_bytes=_fallback_memory)
+        monkeypatch.setattr(matcher_mod, "_core", lambda: fake)
+
+
+@pytest.fixture
+def pair_files(tmp_path):
+    rng = np.random.default_rng(7)
+    right = rng.integers(0, 256, (40, 90, 3), dtype=np.uint8)
+    left = np.roll(right, 6, axis=1)
+    lp, rp = tmp_path / "left.png", tmp_path / "right.png"
+    cv2.imwrite(str(lp), left)
+    cv2.imwrite(str(rp), right)
+    return lp, rp
+
+
+def _read_pfm(path):
+    from stereo_classic.io import read_pfm
+
+    return read_pfm(path)
+
+
+def test_writes_pfm_and_png(pair_files, tmp_path, capsys):
+    lp, rp = pair_files
+    out = tmp_path / "out.pfm"
+    assert main(["disparity", str(lp), str(rp), "-o", str(out), "--num-disparities", "16"]) == 0
+    disp = _read_pfm(out)
+    assert disp.shape == (40, 90) and disp.dtype == np.float32
+    inner = disp[6:-6, 22:-6]
+    assert np.nanmedian(np.abs(inner - 6.0)) < 0.05
+    png = cv2.imread(str(tmp_path / "out.png"))
+    assert png.shape == (40, 90, 3)
+    printed = capsys.readouterr().out
+    assert "valid pixels" in printed and "total" in printed and "prepare" in printed
+
+
+def test_options_reach_the_matcher(pair_files, tmp_path, monkeypatch):
+    seen = {}
+    real = matcher_mod.compute_disparity
+
+    def spy(left, right, params=None, **kw):
+        seen["params"] = params
+        return real(left, right, params, **kw)
+
+    monkeypatch.setattr(matcher_mod, "compute_disparity", spy)
+    lp, rp = pair_files
+    out = tmp_path / "o.pfm"
+    args = ["disparity", str(lp), str(rp), "-o", str(out), "--num-disparities", "20", "--min-disparity", "-2",
+            "--cost", "sad", "--block-size", "3", "--p1", "10", "--p2", "90", "--uniqueness", "5",
+            "--speckle-size", "0", "--speckle-range", "1.5", "--lr-check", "off", "--paths", "4",
+            "--census-window", "7x5", "--no-subpixel", "--fill-holes", "--memory-limit", "1G", "--threads", "1",
+            "--no-png"]
+    assert main(args) == 0
+    p = seen["params"]
+    assert (p.num_disparities, p.min_disparity, p.cost, p.block_size, p.p1, p.p2) == (20, -2, "sad", 3, 10, 90)
+    assert (p.uniqueness, p.speckle_size, p.speckle_range, p.lr_check, p.paths) == (5.0, 0, 1.5, None, 4)
+    assert (p.census_window, p.subpixel, p.fill_holes, p.memory_limit, p.threads) == ((7, 5), False, True, 2**30, 1)
+    assert out.exists() and not (tmp_path / "o.png").exists()
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--num-disparities", "0"], "--num-disparities must be a positive integer"),
+    (["--block-size", "4"], "--block-size must be an odd integer"),
+    (["--p1", "50", "--p2", "40"], "--p2 must be larger than --p1"),
+    (["--memory-limit", "lots"], "--memory-limit"),
+    (["--census-window", "9x9"], "--census-window"),
+    (["--png", "x.jpg"], "--png must name a .png file"),
+    (["--png", "x.png", "--no-png"], "contradict"),
+])
+def test_usage_errors_exit_2(pair_files, tmp_path, capsys, extra, message):
+    lp, rp = pair_files
+    out = tmp_path / "out.pfm"
+    assert main(["disparity", str(lp), str(rp), "-o", str(out), *extra]) == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("argv", [
+    ["disparity", "L", "R"],  # -o missing: argparse
+    ["disparity", "L", "R", "-o", "o.pfm", "--lr-check", "maybe"],
+    ["disparity", "L", "R", "-o", "o.pfm", "--census-window", "9"],
+    ["disparity", "L", "R", "-o", "o.pfm", "--paths", "3"],
+])
+def test_argparse_errors_exit_2(argv):
+    assert main(argv) == 2
+
+
+def test_output_must_be_pfm_and_folder_must_exist(pair_files, tmp_path, capsys):
+    lp, rp = pair_files
+    assert main(["disparity", str(lp), str(rp), "-o", str(tmp_path / "out.png")]) == 2
+    assert ".pfm" in capsys.readouterr().err
+    assert main(["disparity", str(lp), str(rp), "-o", str(tmp_path / "nowhere" / "out.pfm")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_runtime_failures_exit_1_and_write_nothing(pair_files, tmp_path, capsys):
+    lp, rp = pair_files
+    out = tmp_path / "out.pfm"
+    assert main(["disparity", str(lp), str(tmp_path / "missing.png"), "-o", str(out)]) == 1
+    assert "missing.png" in capsys.readouterr().err
+    small = tmp_path / "small.png"
+    cv2.imwrite(str(small), np.zeros((40, 60, 3), np.uint8))
+    assert main(["disparity", str(lp), str(small), "-o", str(out), "--num-disparities", "16"]) == 1
+    assert "same shape" in capsys.readouterr().err
+    assert main(["disparity", str(lp), str(rp), "-o", str(out), "--num-disparities", "16",
+                 "--memory-limit", "1000"]) == 1
+    assert "GiB" in capsys.readouterr().err
+    assert not out.exists() and not (tmp_path / "out.png").exists()
