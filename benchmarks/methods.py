@@ -1,0 +1,284 @@
+"""The stereo methods compared: this project's matcher, OpenCV StereoSGBM / StereoBM, ONNX networks.
+
+Every method is run on the same input pair with the same disparity range (``min_disparity``,
+``num_disparities``) and block size, except where a method's definition fixes them (the KITTI 2015
+"OCV-SGBM" settings use block 3). Each returns a float32 (H, W) disparity in pixels with NaN where
+unknown, so the metrics count every method's invalid border the same way.
+
+A method whose module is missing is still listed, with ``available=False`` and the reason; it is
+reported as "not available", never replaced by something else.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import cv2
+import numpy as np
+
+__all__ = [
+    "Setup",
+    "Method",
+    "Runner",
+    "opencv_methods",
+    "stereo_classic_methods",
+    "default_methods",
+    "opencv_to_disparity",
+    "OPENCV_COMMON",
+]
+
+#: A prepared method: ``runner(left, right) -> (H, W) float32 disparity, NaN unknown``.
+Runner = Callable[[np.ndarray, np.ndarray], np.ndarray]
+
+#: Post-processing shared by the OpenCV SGBM entries (OpenCV's sample values; speckleRange is in
+#: pixels, OpenCV multiplies it by 16 internally).
+OPENCV_COMMON: dict[str, int] = {
+    "preFilterCap": 63,
+    "uniquenessRatio": 10,
+    "speckleWindowSize": 100,
+    "speckleRange": 2,
+    "disp12MaxDiff": 1,
+}
+
+
+@dataclass(frozen=True)
+class Setup:
+    """The problem every method is given: disparity range, block size and thread count."""
+
+    num_disparities: int
+    min_disparity: int = 0
+    block_size: int = 5
+    threads: int = 1
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.num_disparities, (int, np.integer)) or self.num_disparities <= 0 or self.num_disparities % 16:
+            raise ValueError(f"`num_disparities` must be a positive multiple of 16, got {self.num_disparities!r}")
+        if not isinstance(self.block_size, (int, np.integer)) or self.block_size < 1 or self.block_size % 2 == 0:
+            raise ValueError(f"`block_size` must be a positive odd integer, got {self.block_size!r}")
+        if not isinstance(self.threads, (int, np.integer)) or self.threads < 1:
+            raise ValueError(f"`threads` must be an integer >= 1, got {self.threads!r}")
+
+
+@dataclass(frozen=True)
+class Method:
+    """One entry of the comparison.
+
+    Attributes
+    ----------
+    name : str
+        Short unique name used in tables and figures.
+    family : str
+        ``"stereo_classic"``, ``"opencv"`` or ``"onnx"``.
+    description : str
+        What it is, with its settings, for the report.
+    factory : callable or None
+        ``factory(setup) -> Runner``; builds a runner (and its buffers/objects) for one problem.
+    available : bool
+        False when the module behind it is missing; ``reason`` then says why.
+    params : dict
+        The settings that do not depend on the problem (for the report's JSON).
+    """
+
+    name: str
+    family: str
+    description: str
+    factory: Callable[[Setup], Runner] | None
+    available: bool = True
+    reason: str = ""
+    params: dict[str, Any] = field(default_factory=dict)
+
+    def prepare(self, setup: Setup) -> Runner:
+        """A runner for ``setup``; raises RuntimeError when the method is not available."""
+        if not self.available or self.factory is None:
+            raise RuntimeError(f"method {self.name!r} is not available: {self.reason}")
+        return self.factory(setup)
+
+
+def opencv_to_disparity(raw: np.ndarray, min_disparity: int) -> np.ndarray:
+    """OpenCV's int16 fixed-point disparity (x16) to float32 pixels, NaN below ``min_disparity``."""
+    disp = raw.astype(np.float32) / 16.0
+    disp[disp < min_disparity] = np.nan
+    return disp
+
+
+def _channels(image: np.ndarray) -> int:
+    return 1 if image.ndim == 2 else int(image.shape[2])
+
+
+def _grey(image: np.ndarray) -> np.ndarray:
+    if image.ndim == 2:
+        return image
+    return cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+
+
+def _sgbm_factory(mode: int, *, fixed_block: int | None = None, fixed_p: tuple[int, int] | None = None) -> Callable[[Setup], Runner]:
+    def factory(setup: Setup) -> Runner:
+        block = fixed_block if fixed_block is not None else setup.block_size
+        state: dict[str, Any] = {}
+
+        def run(left: np.ndarray, right: np.ndarray) -> np.ndarray:
+            cn = _channels(left)
+            if state.get("cn") != cn:
+                p1, p2 = fixed_p if fixed_p is not None else (8 * cn * block * block, 32 * cn * block * block)
+                state["cn"] = cn
+                state["matcher"] = cv2.StereoSGBM_create(
+                    minDisparity=setup.min_disparity,
+                    numDisparities=setup.num_disparities,
+                    blockSize=block,
+                    P1=p1,
+                    P2=p2,
+                    mode=mode,
+                    **OPENCV_COMMON,
+                )
+            cv2.setNumThreads(setup.threads)
+            raw = state["matcher"].compute(left, right)
+            return opencv_to_disparity(raw, setup.min_disparity)
+
+        return run
+
+    return factory
+
+
+def _bm_factory(setup: Setup) -> Runner:
+    block = max(5, setup.block_size)
+    matcher = cv2.StereoBM_create(numDisparities=setup.num_disparities, blockSize=block)
+    matcher.setMinDisparity(setup.min_disparity)
+    matcher.setUniquenessRatio(OPENCV_COMMON["uniquenessRatio"])
+    matcher.setSpeckleWindowSize(OPENCV_COMMON["speckleWindowSize"])
+    matcher.setSpeckleRange(OPENCV_COMMON["speckleRange"])
+    matcher.setDisp12MaxDiff(OPENCV_COMMON["disp12MaxDiff"])
+
+    def run(left: np.ndarray, right: np.ndarray) -> np.ndarray:
+        cv2.setNumThreads(setup.threads)
+        raw = matcher.compute(_grey(left), _grey(right))
+        return opencv_to_disparity(raw, setup.min_disparity)
+
+    return run
+
+
+def opencv_methods() -> list[Method]:
+    """OpenCV StereoSGBM in its four modes with the documented P1/P2, the KITTI OCV-SGBM settings, StereoBM."""
+    doc = "P1 = 8*cn*block^2, P2 = 32*cn*block^2 (OpenCV docs)"
+    modes = [
+        ("ocv-sgbm", cv2.STEREO_SGBM_MODE_SGBM, "StereoSGBM MODE_SGBM (5 paths)"),
+        ("ocv-hh", cv2.STEREO_SGBM_MODE_HH, "StereoSGBM MODE_HH (8 paths, full-image)"),
+        ("ocv-3way", cv2.STEREO_SGBM_MODE_SGBM_3WAY, "StereoSGBM MODE_SGBM_3WAY (3 paths)"),
+        ("ocv-hh4", cv2.STEREO_SGBM_MODE_HH4, "StereoSGBM MODE_HH4 (4 paths)"),
+    ]
+    out = [
+        Method(name, "opencv", f"{desc}; {doc}", _sgbm_factory(mode), params={"mode": desc, "P1/P2": doc, **OPENCV_COMMON})
+        for name, mode, desc in modes
+    ]
+    out.append(
+        Method(
+            "ocv-kitti",
+            "opencv",
+            "StereoSGBM MODE_HH with the KITTI 2015 OCV-SGBM settings: block 3, P1 36, P2 288, 8 paths",
+            _sgbm_factory(cv2.STEREO_SGBM_MODE_HH, fixed_block=3, fixed_p=(36, 288)),
+            params={"mode": "MODE_HH", "blockSize": 3, "P1": 36, "P2": 288, **OPENCV_COMMON},
+        )
+    )
+    out.append(
+        Method(
+            "ocv-bm",
+            "opencv",
+            "StereoBM (block matching, grey input, no smoothness term): the floor",
+            _bm_factory,
+            params={k: v for k, v in OPENCV_COMMON.items() if k != "preFilterCap"},
+        )
+    )
+    return out
+
+
+#: (name, overrides, description) of the matcher variants.
+_MATCHER_VARIANTS: tuple[tuple[str, dict[str, Any], str], ...] = (
+    ("sc-default", {}, "stereo_classic default parameters"),
+    ("sc-sad-8", {"cost": "sad", "paths": 8}, "stereo_classic SAD cost, 8 paths"),
+    ("sc-sad-4", {"cost": "sad", "paths": 4}, "stereo_classic SAD cost, 4 paths"),
+    ("sc-census-8", {"cost": "census", "paths": 8}, "stereo_classic census cost, 8 paths"),
+    ("sc-census-4", {"cost": "census", "paths": 4}, "stereo_classic census cost, 4 paths"),
+)
+
+
+def _matcher_factory(module: Any, overrides: dict[str, Any]) -> Callable[[Setup], Runner]:
+    params_cls = module.SGMParams
+    fields = {f.name for f in dataclasses.fields(params_cls)}
+
+    def factory(setup: Setup) -> Runner:
+        kwargs = dict(overrides)
+        kwargs.update(num_disparities=setup.num_disparities, min_disparity=setup.min_disparity)
+        if "block_size" in fields:
+            kwargs["block_size"] = setup.block_size
+        if "threads" in fields:
+            kwargs["threads"] = setup.threads
+        params = params_cls(**kwargs)
+        matcher = module.StereoMatcher(params) if getattr(module, "StereoMatcher", None) is not None else None
+
+        def run(left: np.ndarray, right: np.ndarray) -> np.ndarray:
+            if "threads" not in fields:
+                import numba
+
+                numba.set_num_threads(min(setup.threads, numba.config.NUMBA_NUM_THREADS))
+            dmap = matcher.compute(left, right) if matcher is not None else module.compute_disparity(left, right, params)
+            return np.asarray(dmap.disparity, dtype=np.float32)
+
+        return run
+
+    return factory
+
+
+def _matcher_module() -> Any:
+    """``stereo_classic`` when it exports the matcher, else its ``matcher`` and ``params`` modules."""
+    module = importlib.import_module("stereo_classic")
+    if all(hasattr(module, n) for n in ("SGMParams", "compute_disparity", "StereoMatcher")):
+        return module
+    try:
+        matcher = importlib.import_module("stereo_classic.matcher")
+        params = importlib.import_module("stereo_classic.params")
+    except ImportError as exc:
+        raise ImportError(f"stereo_classic has no SGMParams/compute_disparity yet ({exc})") from None
+    import types
+
+    return types.SimpleNamespace(SGMParams=params.SGMParams, compute_disparity=matcher.compute_disparity,
+                                 StereoMatcher=getattr(matcher, "StereoMatcher", None))
+
+
+def stereo_classic_methods() -> list[Method]:
+    """This project's matcher: default, SAD and census costs, 8 and 4 paths (or "not available")."""
+    try:
+        module = _matcher_module()
+        fields = {f.name for f in dataclasses.fields(module.SGMParams)}
+    except Exception as exc:  # noqa: BLE001 - any failure to import means "not available", reported with its reason
+        reason = f"{type(exc).__name__}: {exc}"
+        return [Method(name, "stereo_classic", desc, None, available=False, reason=reason, params=ov) for name, ov, desc in _MATCHER_VARIANTS]
+    out = []
+    for name, overrides, desc in _MATCHER_VARIANTS:
+        unknown = [k for k in overrides if k not in fields]
+        if unknown:
+            out.append(Method(name, "stereo_classic", desc, None, available=False, reason=f"SGMParams has no field {unknown}", params=overrides))
+            continue
+        try:
+            defaults = module.SGMParams(**overrides)
+            shown = {f: getattr(defaults, f) for f in sorted(fields) if f not in ("num_disparities", "min_disparity")}
+        except Exception:  # noqa: BLE001 - defaults that need the problem's range: show the overrides only
+            shown = {}
+        shown.update(overrides)
+        shown = {k: (v if isinstance(v, (int, float, str, bool, type(None))) else repr(v)) for k, v in shown.items()}
+        out.append(Method(name, "stereo_classic", desc, _matcher_factory(module, overrides), params=shown))
+    return out
+
+
+def default_methods(names: Sequence[str] | None = None) -> list[Method]:
+    """All built-in methods (matcher variants first, then OpenCV), optionally filtered by name."""
+    methods = stereo_classic_methods() + opencv_methods()
+    if names:
+        known = {m.name for m in methods}
+        unknown = [n for n in names if n not in known]
+        if unknown:
+            raise ValueError(f"`methods` must be names from {sorted(known)}, got unknown {unknown}")
+        methods = [m for m in methods if m.name in names]
+    return methods

@@ -1,0 +1,234 @@
+"""Detector latency, whole-pipeline frame rate, and object distance error against LiDAR / ground truth.
+
+Everything here depends on the ``detectors`` package and ``stereo_classic.localize`` /
+``stereo_classic.Localizer``; where one is missing, the functions return ``{"available": False,
+"reason": ...}`` and the report says "not available".
+
+Distance references
+-------------------
+- KITTI pair: for each detected box, the LiDAR depths (metres) projected into the left image inside
+  the central part of the box (the same ``box_shrink`` as the fusion); sorted, split into clusters
+  where consecutive depths differ by more than ``max(0.5 m, 5 %)``; the nearest cluster holding at
+  least 20 % of the largest cluster's points (and at least 5 points) is the object; its median depth
+  is the reference. See :func:`lidar_reference_distance`.
+- Motorcycle: the same fusion (``stereo_classic.localize``) applied to the ground-truth disparity.
+"""
+
+from __future__ import annotations
+
+import importlib
+import statistics
+import time
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "lidar_reference_distance",
+    "detector_latency",
+    "pipeline_fps",
+    "distance_errors",
+    "find_detector_models",
+]
+
+
+def _unavailable(exc: BaseException | str) -> dict[str, Any]:
+    reason = exc if isinstance(exc, str) else f"{type(exc).__name__}: {exc}"
+    return {"available": False, "reason": reason}
+
+
+def lidar_reference_distance(gt_depth: np.ndarray, box: Sequence[float], *, shrink: float = 0.2, min_points: int = 5) -> float | None:
+    """Reference distance (metres) of the object in ``box`` from sparse LiDAR depth.
+
+    Parameters
+    ----------
+    gt_depth : (H, W) float array, metres, NaN (or <= 0) where there is no LiDAR point
+    box : (x0, y0, x1, y1) pixels
+    shrink : float in [0, 1)
+        Fraction of the width and height removed, half on each side.
+    min_points : int
+        Fewest points of the chosen cluster; fewer gives None.
+
+    Returns
+    -------
+    float or None
+        Median depth of the nearest dense cluster (module docstring), None without enough points.
+    """
+    depth = np.asarray(gt_depth, dtype=np.float64)
+    if depth.ndim != 2:
+        raise ValueError(f"`gt_depth` must be a 2-D (H, W) depth map, got shape {depth.shape}")
+    if not 0.0 <= shrink < 1.0:
+        raise ValueError(f"`shrink` must be in [0, 1), got {shrink!r}")
+    x0, y0, x1, y1 = (float(v) for v in box)
+    w, h = x1 - x0, y1 - y0
+    h_img, w_img = depth.shape
+    cx0 = int(np.clip(np.floor(x0 + w * shrink / 2), 0, w_img))
+    cx1 = int(np.clip(np.ceil(x1 - w * shrink / 2), 0, w_img))
+    cy0 = int(np.clip(np.floor(y0 + h * shrink / 2), 0, h_img))
+    cy1 = int(np.clip(np.ceil(y1 - h * shrink / 2), 0, h_img))
+    values = depth[cy0:cy1, cx0:cx1].ravel()
+    values = np.sort(values[np.isfinite(values) & (values > 0)])
+    if values.size < min_points:
+        return None
+    gaps = np.diff(values) > np.maximum(0.5, 0.05 * values[:-1])
+    starts = np.concatenate([[0], np.nonzero(gaps)[0] + 1])
+    ends = np.concatenate([starts[1:], [values.size]])
+    sizes = ends - starts
+    need = max(min_points, int(np.ceil(0.2 * sizes.max())))
+    for s, e, n in zip(starts, ends, sizes):
+        if n >= need:
+            return float(np.median(values[s:e]))
+    return None
+
+
+def find_detector_models(models_dir: Path | None) -> list[Path]:
+    """The ``*.onnx`` files in ``models_dir`` (sorted), or [] when there is none."""
+    if models_dir is None or not Path(models_dir).is_dir():
+        return []
+    return sorted(Path(models_dir).glob("*.onnx"))
+
+
+def _median_stats(times: Sequence[float]) -> dict[str, Any]:
+    return {"median_ms": statistics.median(times), "min_ms": min(times), "max_ms": max(times), "times_ms": list(times)}
+
+
+def detector_latency(models: Sequence[Path], image: np.ndarray, *, threads: Sequence[int] = (1, 2), repeat: int = 5) -> dict[str, Any]:
+    """Latency of ``OnnxDetector.detect`` (letterbox + inference + decoding + NMS) per model and thread count.
+
+    Uses ``detectors/bench.py``'s helper when it exists, else times ``detect`` here: one first call
+    apart, then ``repeat`` calls interleaved between models.
+    """
+    try:
+        detectors = importlib.import_module("detectors")
+        OnnxDetector = getattr(detectors, "OnnxDetector", None) or importlib.import_module("detectors.onnx_detector").OnnxDetector
+    except Exception as exc:  # noqa: BLE001
+        return _unavailable(exc)
+    if not models:
+        return _unavailable("no detector model found (give --models DIR or set STEREO_CLASSIC_MODELS)")
+    rows: list[dict[str, Any]] = []
+    for t in threads:
+        dets: dict[str, Any] = {}
+        for path in models:
+            try:
+                det = OnnxDetector(str(path), threads=int(t))
+                t0 = time.perf_counter()
+                result = det.detect(image)
+                first = (time.perf_counter() - t0) * 1000.0
+                dets[path.name] = (det, first, len(result))
+            except Exception as exc:  # noqa: BLE001 - a model this package cannot run is reported, not fatal
+                rows.append({"model": path.name, "threads": int(t), "error": f"{type(exc).__name__}: {exc}"})
+        times: dict[str, list[float]] = {n: [] for n in dets}
+        for _ in range(repeat):
+            for name, (det, _first, _n) in dets.items():
+                t0 = time.perf_counter()
+                det.detect(image)
+                times[name].append((time.perf_counter() - t0) * 1000.0)
+        for name, (det, first, n) in dets.items():
+            rows.append({"model": name, "threads": int(t), "first_call_ms": first, "detections": n, **_median_stats(times[name])})
+    return {"available": True, "image_size": [int(image.shape[1]), int(image.shape[0])], "rows": rows,
+            "how": "OnnxDetector.detect on the image (letterbox, inference, decoding, NMS), first call excluded"}
+
+
+def pipeline_fps(scene: Any, model: Path | None, *, num_disparities: int, threads: int = 2, repeat: int = 5) -> dict[str, Any]:
+    """Frames per second of ``stereo_classic.Localizer`` (matcher + detector + fusion) on one scene."""
+    if scene.rig is None:
+        return _unavailable(f"scene {scene.name} has no calibration")
+    try:
+        pipeline = importlib.import_module("stereo_classic.pipeline")
+        detector: Any = None
+        if model is not None:
+            detectors = importlib.import_module("detectors")
+            OnnxDetector = getattr(detectors, "OnnxDetector", None) or importlib.import_module("detectors.onnx_detector").OnnxDetector
+            detector = OnnxDetector(str(model), threads=threads)
+        loc = pipeline.Localizer(scene.rig, detector, {"num_disparities": num_disparities, "threads": threads})
+        t0 = time.perf_counter()
+        first = loc(scene.left, scene.right)
+        first_ms = (time.perf_counter() - t0) * 1000.0
+    except Exception as exc:  # noqa: BLE001 - reported as not available with its reason
+        return _unavailable(exc)
+    times: list[float] = []
+    stages: dict[str, list[float]] = {}
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        res = loc(scene.left, scene.right)
+        times.append((time.perf_counter() - t0) * 1000.0)
+        for k, v in res.timings_ms.items():
+            stages.setdefault(k, []).append(float(v))
+    stats = _median_stats(times)
+    return {
+        "available": True,
+        "scene": scene.name,
+        "size": list(scene.size),
+        "num_disparities": num_disparities,
+        "threads": threads,
+        "model": None if model is None else Path(model).name,
+        "first_call_ms": first_ms,
+        "objects": len(first.objects.labels) if hasattr(first.objects, "labels") else None,
+        "fps": 1000.0 / stats["median_ms"],
+        **stats,
+        "stages_median_ms": {k: statistics.median(v) for k, v in stages.items()},
+    }
+
+
+def _localize_fn() -> Any:
+    module = importlib.import_module("stereo_classic")
+    if hasattr(module, "localize"):
+        return module.localize
+    return importlib.import_module("stereo_classic.fusion").localize
+
+
+def distance_errors(scene: Any, model: Path | None, outputs: Mapping[str, np.ndarray], *, box_shrink: float = 0.2, classes: Sequence[str] = ()) -> dict[str, Any]:
+    """Distance of each detected object from each method's disparity, against the scene's reference.
+
+    Reference: LiDAR (``scene.gt_depth``, :func:`lidar_reference_distance`) when present, else the
+    fusion applied to ``scene.gt_disparity``. Returns per object the reference and, per method, the
+    fused distance, its error in metres and percent, and the fusion status.
+    """
+    if scene.rig is None:
+        return _unavailable(f"scene {scene.name} has no calibration")
+    if model is None:
+        return _unavailable("no detector model found (give --models DIR or set STEREO_CLASSIC_MODELS)")
+    try:
+        localize = _localize_fn()
+        detectors = importlib.import_module("detectors")
+        OnnxDetector = getattr(detectors, "OnnxDetector", None) or importlib.import_module("detectors.onnx_detector").OnnxDetector
+        dets = OnnxDetector(str(model)).detect(scene.left)
+        if classes:
+            dets = dets.only(*classes)
+    except Exception as exc:  # noqa: BLE001
+        return _unavailable(exc)
+    labels = list(getattr(dets, "labels", []))
+    boxes = np.asarray(dets.xyxy, dtype=np.float64)
+    if scene.gt_depth is not None:
+        how = "LiDAR: median of the nearest dense cluster of LiDAR depths in the central box"
+        refs = [lidar_reference_distance(scene.gt_depth, b, shrink=box_shrink) for b in boxes]
+    elif scene.gt_disparity is not None:
+        how = "the same fusion (stereo_classic.localize) applied to the ground-truth disparity"
+        try:
+            ref_obj = localize(dets, scene.gt_disparity, scene.rig, box_shrink=box_shrink, rng=0)
+        except Exception as exc:  # noqa: BLE001
+            return _unavailable(exc)
+        refs = [float(d) if np.isfinite(d) else None for d in ref_obj.distance_m]
+    else:
+        return _unavailable(f"scene {scene.name} has neither LiDAR nor ground-truth disparity")
+    objects = []
+    for i, label in enumerate(labels):
+        objects.append({"label": label, "confidence": float(dets.confidence[i]), "xyxy": boxes[i].tolist(), "reference_m": refs[i], "methods": {}})
+    for method, disp in outputs.items():
+        try:
+            loc = localize(dets, disp, scene.rig, box_shrink=box_shrink, rng=0)
+        except Exception as exc:  # noqa: BLE001
+            for obj in objects:
+                obj["methods"][method] = {"error": f"{type(exc).__name__}: {exc}"}
+            continue
+        for i, obj in enumerate(objects):
+            d = float(loc.distance_m[i])
+            ref = obj["reference_m"]
+            entry: dict[str, Any] = {"distance_m": d if np.isfinite(d) else None, "status": loc.status[i]}
+            if ref is not None and np.isfinite(d):
+                entry["error_m"] = d - ref
+                entry["error_pct"] = 100.0 * abs(d - ref) / ref
+            obj["methods"][method] = entry
+    return {"available": True, "scene": scene.name, "reference": how, "model": Path(model).name, "objects": objects}

@@ -1,0 +1,351 @@
+"""One benchmark run: accuracy, speed, memory, detectors, pipeline and distances, then the report.
+
+:func:`run_benchmark` measures and returns every raw number as one JSON-ready dict;
+:func:`write_report` turns it into report.json, report.md, report.html and figures.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import importlib
+import logging
+import os
+import platform
+import subprocess
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+from benchmarks import metrics as _metrics
+from benchmarks.methods import Method, Setup, default_methods
+from benchmarks.scenes import BenchScene, SpeedInput, disparity_range, load_scenes, speed_inputs
+from benchmarks.timing import summarize, time_interleaved
+
+__all__ = ["BenchConfig", "run_benchmark", "machine_info", "DEFAULT_SIZES"]
+
+log = logging.getLogger("benchmarks")
+
+#: The speed sizes of the issue: the KITTI pair and full HD with 256 disparities.
+DEFAULT_SIZES: tuple[tuple[int, int, int], ...] = ((1242, 375, 128), (1920, 1080, 256))
+
+
+@dataclass
+class BenchConfig:
+    """What to run (the command-line options)."""
+
+    data_dir: Path | None = None
+    out_dir: Path = Path("bench_out")
+    scenes: list[str] | None = None
+    methods: list[str] | None = None
+    repeat: int = 5
+    threads: tuple[int, ...] = (1, 2)
+    block_size: int = 5
+    sizes: tuple[tuple[int, int, int], ...] = DEFAULT_SIZES
+    stereo_onnx: list[Path] = field(default_factory=list)
+    onnx_options: dict[str, Any] = field(default_factory=dict)
+    models_dir: Path | None = None
+    memory: bool = True
+    objects: bool = True
+    figures: bool = True
+    quick: bool = False
+    progress: bool | None = None
+
+    def __post_init__(self) -> None:
+        if isinstance(self.repeat, bool) or not isinstance(self.repeat, int) or self.repeat < 1:
+            raise ValueError(f"`repeat` must be an integer >= 1, got {self.repeat!r}")
+        if not self.threads or any(not isinstance(t, int) or t < 1 for t in self.threads):
+            raise ValueError(f"`threads` must be one or more integers >= 1, got {self.threads!r}")
+        if self.block_size < 1 or self.block_size % 2 == 0:
+            raise ValueError(f"`block_size` must be a positive odd integer, got {self.block_size!r}")
+
+
+def _version(module: str) -> str | None:
+    try:
+        mod = importlib.import_module(module)
+    except Exception:  # noqa: BLE001 - absent or broken: no version
+        return None
+    return str(getattr(mod, "__version__", "unknown"))
+
+
+def _cpu_model() -> str:
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                if line.lower().startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine()
+
+
+def _git_commit() -> str | None:
+    repo = Path(__file__).resolve().parents[1]
+    try:
+        head = subprocess.run(["git", "-C", str(repo), "rev-parse", "HEAD"], capture_output=True, text=True, timeout=10, check=False)
+        dirty = subprocess.run(["git", "-C", str(repo), "status", "--porcelain", "--untracked-files=no"], capture_output=True, text=True, timeout=10, check=False)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    if head.returncode != 0:
+        return None
+    return head.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "")
+
+
+def machine_info() -> dict[str, Any]:
+    """CPU model, cores, memory, OS, library versions and the date (UTC)."""
+    try:
+        affinity = len(os.sched_getaffinity(0))
+    except AttributeError:
+        affinity = None
+    try:
+        mem = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30
+    except (ValueError, OSError, AttributeError):
+        mem = None
+    return {
+        "date_utc": _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M:%S"),
+        "cpu_model": _cpu_model(),
+        "logical_cpus": os.cpu_count(),
+        "usable_cpus": affinity,
+        "memory_gib": mem,
+        "os": platform.platform(),
+        "python": platform.python_version(),
+        "versions": {name: _version(name) for name in ("numpy", "numba", "cv2", "onnxruntime", "skimage", "matplotlib", "stereo_classic")},
+        "opencv_threads_default": cv2.getNumThreads(),
+        "git_commit": _git_commit(),
+    }
+
+
+class _Progress:
+    def __init__(self, total: int, enabled: bool | None) -> None:
+        try:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, file=sys.stderr, disable=enabled is False if enabled is not None else None, unit="run", dynamic_ncols=True)
+        except ImportError:  # tqdm is a runtime dependency, but never fail for a progress bar
+            self.bar = None
+
+    def step(self, label: str) -> None:
+        if self.bar is not None:
+            self.bar.set_postfix_str(label[:40], refresh=False)
+            self.bar.update(1)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _first_calls(methods: Sequence[Method], setup: Setup, left: np.ndarray, right: np.ndarray, progress: _Progress,
+                 label: str) -> tuple[dict, dict, dict, dict]:
+    """Prepare each method and run it once: (runners, first-call ms, outputs), errors per method."""
+    import time
+
+    runners, first, outputs, errors = {}, {}, {}, {}
+    for m in methods:
+        try:
+            runner = m.prepare(setup)
+            t0 = time.perf_counter()
+            out = runner(left, right)
+            first[m.name] = (time.perf_counter() - t0) * 1000.0
+            if not isinstance(out, np.ndarray) or out.shape != left.shape[:2]:
+                raise RuntimeError(f"returned {type(out).__name__} of shape {getattr(out, 'shape', None)}, expected {left.shape[:2]}")
+            outputs[m.name] = out
+            runners[m.name] = (lambda r=runner: r(left, right))
+        except Exception as exc:  # noqa: BLE001 - one failing method must not stop the others; reported
+            errors[m.name] = f"{type(exc).__name__}: {exc}"
+            log.warning("%s failed on %s: %s", m.name, label, errors[m.name])
+        progress.step(f"{label} {m.name}")
+    return runners, first, outputs, errors
+
+
+def _speed_rows(name: str, kind: str, note: str, size: tuple[int, int], ndisp: int, setup: Setup,
+                methods: Sequence[Method], left: np.ndarray, right: np.ndarray, repeat: int, progress: _Progress) -> tuple[list[dict], dict, dict]:
+    runners, first, outputs, errors = _first_calls(methods, setup, left, right, progress, f"{name} t{setup.threads}")
+    timed = time_interleaved(runners, repeat, first_call=False, on_step=lambda n: progress.step(f"{name} t{setup.threads} {n}")) if runners else {}
+    rows = []
+    for m in methods:
+        row: dict[str, Any] = {"input": name, "kind": kind, "note": note, "width": size[0], "height": size[1],
+                               "num_disparities": ndisp, "threads": setup.threads, "method": m.name}
+        if m.name in timed:
+            row.update(summarize(timed[m.name], size[0], size[1], ndisp))
+            row["first_call_ms"] = first[m.name]
+        else:
+            row["error"] = errors.get(m.name, m.reason or "not available")
+        rows.append(row)
+    return rows, outputs, errors
+
+
+def run_benchmark(config: BenchConfig, *, argv: Sequence[str] | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Run everything ``config`` asks for.
+
+    Returns
+    -------
+    (report, arrays)
+        ``report``: JSON-ready dict of every number. ``arrays``: what the figures need (per scene the
+        images, ground truth and each method's disparity), not written to JSON.
+    """
+    from benchmarks.stereo_onnx import onnx_method
+
+    methods = default_methods(config.methods)
+    onnx_specs = []
+    for path in config.stereo_onnx:
+        m = onnx_method(path, **config.onnx_options)
+        methods.append(m)
+        onnx_specs.append({"name": m.name, "path": str(path), "options": dict(config.onnx_options)})
+    available = [m for m in methods if m.available]
+    for m in methods:
+        if not m.available:
+            log.warning("%s: not available (%s)", m.name, m.reason)
+
+    scenes = load_scenes(config.data_dir, config.scenes)
+    sizes = () if config.quick else config.sizes
+    extra_inputs = speed_inputs(scenes, sizes)
+    threads = tuple(config.threads[:1]) if config.quick else tuple(config.threads)
+    acc_threads = max(threads)
+
+    notes: list[str] = []
+    if config.quick:
+        notes.append("--quick: real scenes only (no synthetic speed sizes), one thread count, memory of all methods in one child process.")
+    report: dict[str, Any] = {
+        "schema": "stereo_classic.benchmarks/1",
+        "command": ["python", "-m", "benchmarks", *(argv or [])],
+        "machine": machine_info(),
+        "config": {
+            "data_dir": None if config.data_dir is None else str(config.data_dir),
+            "repeat": config.repeat, "threads": list(threads), "block_size": config.block_size,
+            "sizes": [list(s) for s in sizes], "quick": config.quick, "min_disparity": 0,
+            "disparity_range": "ground-truth maximum + 1 rounded up to 16 (else the dataset's bound, else 128)",
+            "accuracy_threads": acc_threads,
+        },
+        "notes": notes,
+        "methods": [{"name": m.name, "family": m.family, "description": m.description, "available": m.available,
+                     "reason": m.reason or None, "params": m.params} for m in methods],
+        "scenes": [],
+        "accuracy": {},
+        "accuracy_mean": {},
+        "errors": {},
+        "speed": [],
+        "memory": [],
+    }
+    arrays: dict[str, Any] = {"scenes": {}}
+
+    total = (len(scenes) + len(extra_inputs)) * len(threads) * len(available) * (config.repeat + 1)
+    progress = _Progress(total, config.progress)
+    try:
+        for scene in scenes:
+            ndisp = disparity_range(scene)
+            report["scenes"].append({
+                "name": scene.name, "size": list(scene.size), "num_disparities": ndisp,
+                "has_gt": scene.gt_disparity is not None, "has_nonocc": scene.nonocc_mask is not None,
+                "has_lidar": scene.gt_depth is not None, "has_rig": scene.rig is not None, "source": scene.source,
+            })
+            outputs: dict[str, np.ndarray] = {}
+            for t in threads:
+                setup = Setup(num_disparities=ndisp, min_disparity=0, block_size=config.block_size, threads=t)
+                log.info("scene %s (%dx%d, %d disparities), %d thread(s)", scene.name, *scene.size, ndisp, t)
+                rows, outs, errs = _speed_rows(scene.name, "scene", scene.source, scene.size, ndisp, setup, available,
+                                               scene.left, scene.right, config.repeat, progress)
+                report["speed"] += rows
+                if t == acc_threads:
+                    outputs = outs
+                    if errs:
+                        report["errors"][scene.name] = errs
+            arrays["scenes"][scene.name] = {"scene": scene, "outputs": outputs, "ndisp": ndisp}
+            if scene.gt_disparity is not None:
+                per_method = {}
+                for m in methods:
+                    if m.name in outputs:
+                        per_method[m.name] = _metrics.scene_metrics(outputs[m.name], scene.gt_disparity,
+                                                                    nonocc_mask=scene.nonocc_mask, max_disparity=ndisp)
+                    else:
+                        per_method[m.name] = {"error": report["errors"].get(scene.name, {}).get(m.name, m.reason or "not available")}
+                report["accuracy"][scene.name] = per_method
+
+        for inp in extra_inputs:
+            for t in threads:
+                setup = Setup(num_disparities=inp.num_disparities, min_disparity=0, block_size=config.block_size, threads=t)
+                log.info("speed input %s, %d thread(s): %s", inp.name, t, inp.note)
+                rows, _outs, _errs = _speed_rows(inp.name, "synthetic", inp.note, inp.size, inp.num_disparities, setup,
+                                                 available, inp.left, inp.right, config.repeat, progress)
+                report["speed"] += rows
+    finally:
+        progress.close()
+        cv2.setNumThreads(-1)
+
+    # accuracy averaged over scenes with ground truth (only scenes where the method ran)
+    for m in methods:
+        runs = [report["accuracy"][s][m.name] for s in report["accuracy"] if "error" not in report["accuracy"][s][m.name]]
+        if runs:
+            mean = _metrics.mean_metrics(runs)
+            mean["scenes"] = len(runs)
+            report["accuracy_mean"][m.name] = mean
+
+    if config.memory and available:
+        report["memory"] = _memory(config, scenes, extra_inputs, available, onnx_specs, max(threads))
+    if config.objects:
+        report.update(_objects(config, scenes, arrays, threads))
+    return report, arrays
+
+
+def _memory(config: BenchConfig, scenes: Sequence[BenchScene], extra: Sequence[SpeedInput], methods: Sequence[Method],
+            onnx_specs: Sequence[dict], threads: int) -> list[dict[str, Any]]:
+    from benchmarks.memprobe import measure_memory
+
+    targets: list[tuple[str, np.ndarray, np.ndarray, int]] = []
+    if config.quick:
+        s = scenes[0]
+        targets.append((s.name, s.left, s.right, disparity_range(s)))
+    else:
+        wanted = {(w, h, d) for w, h, d in config.sizes}
+        for s in scenes:
+            if (s.size[0], s.size[1], disparity_range(s)) in wanted:
+                targets.append((s.name, s.left, s.right, disparity_range(s)))
+        for inp in extra:
+            targets.append((inp.name, inp.left, inp.right, inp.num_disparities))
+        if not targets and scenes:
+            s = scenes[0]
+            targets.append((s.name, s.left, s.right, disparity_range(s)))
+    rows = []
+    for name, left, right, ndisp in targets:
+        log.info("memory on %s (%dx%d, %d disparities): one child process per method%s", name, left.shape[1], left.shape[0], ndisp,
+                 "" if not config.quick else " (quick: one for all)")
+        setup = Setup(num_disparities=ndisp, min_disparity=0, block_size=config.block_size, threads=threads)
+        res = measure_memory([m.name for m in methods], left, right, setup, onnx=onnx_specs, isolate=not config.quick)
+        for m in methods:
+            rows.append({"input": name, "width": int(left.shape[1]), "height": int(left.shape[0]), "num_disparities": ndisp,
+                         "threads": threads, "method": m.name, "wxhxd_mb": left.shape[0] * left.shape[1] * ndisp / 2**20,
+                         **res.get(m.name, {"error": "not measured"})})
+    return rows
+
+
+def _objects(config: BenchConfig, scenes: Sequence[BenchScene], arrays: dict, threads: Sequence[int]) -> dict[str, Any]:
+    from benchmarks import objects
+
+    out: dict[str, Any] = {}
+    models = objects.find_detector_models(config.models_dir)
+    default_model = next((p for p in models if "yolox_nano" in p.name), models[0] if models else None)
+    kitti = next((s for s in scenes if s.gt_depth is not None and s.rig is not None), None)
+    moto = next((s for s in scenes if "motorcycle" in s.name.lower() and s.rig is not None), None)
+    image = (kitti or moto or scenes[0]).left
+    log.info("detector latency (%d model(s))", len(models))
+    out["detectors"] = objects.detector_latency(models, image, threads=threads, repeat=config.repeat)
+    pipe_scene = kitti or moto
+    if pipe_scene is None:
+        out["pipeline"] = {"available": False, "reason": "no scene with calibration loaded (the KITTI pair or Motorcycle)"}
+    else:
+        log.info("whole pipeline on %s", pipe_scene.name)
+        out["pipeline"] = objects.pipeline_fps(pipe_scene, default_model, num_disparities=disparity_range(pipe_scene),
+                                               threads=max(threads), repeat=config.repeat)
+    out["distance"] = {}
+    for scene in (kitti, moto):
+        if scene is None:
+            continue
+        log.info("object distances on %s", scene.name)
+        outputs = arrays["scenes"].get(scene.name, {}).get("outputs", {})
+        out["distance"][scene.name] = objects.distance_errors(scene, default_model, outputs)
+    if not out["distance"]:
+        out["distance"]["none"] = {"available": False, "reason": "neither the KITTI pair nor Motorcycle with calibration was loaded"}
+    return out
