@@ -11,12 +11,19 @@ Design decisions (see ``localize`` for the parameters):
   depth uncertainty of one pixel of disparity is ``dZ = Z**2 / (f * B)``, so a constant band in disparity
   *is* a depth band that grows with ``Z**2`` exactly as the issue asks, without a per-hypothesis depth
   formula and without the first-order approximation: the matcher's error is roughly constant in pixels.
-* **Largest set wins; the object is in front.** Sequential RANSAC extracts up to ``max_clusters``
-  consistent sets (largest first). The largest set is the answer unless a *nearer* set has at least
-  ``near_support`` times its support, in which case the nearest such set wins: the object stands in
-  front of its background, so a substantial near set is the object even when the background behind it
-  fills most of the box. Equal support is a tie, and ties go to the nearer set. Inside one RANSAC round,
-  hypotheses with the same count are also broken towards the nearer (larger disparity) value.
+* **Largest set wins, votes weighted towards the box centre.** Sequential RANSAC extracts up to
+  ``max_clusters`` consistent sets. Each pixel's vote is weighted by a Gaussian centred on the box
+  (``centre_sigma``): a detector centres its box on the object, while the background and occluders
+  enter from the box edges. So the background loses even when it covers most of the box, and a near
+  occluder at the box edge (another car) does not win either.
+* **Continuity (optional).** With ``grow_density > 0`` the RANSAC band grows over neighbouring
+  disparities while they stay dense, so a slanted surface (a car seen at an angle) becomes one set and a
+  gap (the jump to the background) ends it. Off by default: on the KITTI pair it also merged a car with
+  the parked cars behind it (measured: 14.27 m -> 14.53 m against a LiDAR reference of 13.86 m).
+* **The object is in front.** The heaviest set wins unless a *nearer* set has at least ``near_support``
+  times its weighted support; then the nearest such set wins. Equal support is a tie, and ties go to the
+  nearer set. Inside one RANSAC round, hypotheses with the same support are also broken towards the
+  nearer (larger disparity) value.
 * **Soft failure is a value.** A box that cannot be measured gets a ``status`` saying why and NaN numbers,
   never an exception and never a made-up distance.
 """
@@ -36,6 +43,7 @@ __all__ = [
     "localize",
     "ransac_1d",
     "direction_phrase",
+    "sparse_depth_reference",
     "STATUSES",
 ]
 
@@ -63,10 +71,11 @@ def ransac_1d(
     values: np.ndarray,
     tolerance: float,
     *,
+    weights: np.ndarray | None = None,
     max_iterations: int = 256,
     rng: Any = None,
 ) -> tuple[float, np.ndarray]:
-    """Find the largest set of 1-D values that lie within ``tolerance`` of one centre.
+    """Find the heaviest set of 1-D values that lie within ``tolerance`` of one centre.
 
     Parameters
     ----------
@@ -74,6 +83,8 @@ def ransac_1d(
         Finite values (here: disparities in pixels).
     tolerance : float
         Half width of the inlier band, same unit as ``values``.
+    weights : (n,) float array, optional
+        Non-negative weight per value (default 1: the largest set).
     max_iterations : int
         Number of hypotheses; each is one of the values. When ``n <= max_iterations`` every value is a
         hypothesis (exhaustive and independent of ``rng``), otherwise ``max_iterations`` values are drawn
@@ -84,15 +95,16 @@ def ransac_1d(
     Returns
     -------
     centre : float
-        The refined centre (mean of the inliers); NaN when ``values`` is empty.
+        The refined centre (weighted mean of the inliers); NaN when ``values`` is empty.
     inliers : (n,) bool array
         ``|values - centre| <= tolerance`` after refinement.
 
     Notes
     -----
-    Counting uses a sorted copy and ``searchsorted`` (O(log n) per hypothesis), so it is vectorised and
-    exact. Among hypotheses with the same count the largest value wins (in disparity: the nearer one).
-    The winner is refined by re-centring on the mean of its inliers while that does not lose support.
+    Support is summed over a sorted copy with a cumulative sum and ``searchsorted`` (O(log n) per
+    hypothesis), so it is vectorised and exact. Among hypotheses with the same support the largest value
+    wins (in disparity: the nearer one). The winner is re-centred on the mean of its inliers while that
+    does not lose support.
 
     Examples
     --------
@@ -107,42 +119,82 @@ def ransac_1d(
         return math.nan, np.zeros(0, dtype=bool)
     if not np.all(np.isfinite(v)):
         raise FusionInputError("`values` must all be finite")
+    if weights is None:
+        w = np.ones_like(v)
+    else:
+        w = np.asarray(weights, dtype=np.float64).ravel()
+        if w.shape != v.shape or not np.all(np.isfinite(w)) or np.any(w < 0):
+            raise FusionInputError(f"`weights` must be {v.size} finite non-negative numbers")
     gen = _check_rng(rng)
-    s = np.sort(v)
+    order = np.argsort(v, kind="stable")
+    s = v[order]
+    cw = np.concatenate([[0.0], np.cumsum(w[order])])
+
+    def support(centres: np.ndarray) -> np.ndarray:
+        hi = np.searchsorted(s, centres + tolerance, side="right")
+        lo = np.searchsorted(s, centres - tolerance, side="left")
+        return cw[hi] - cw[lo]
+
     if s.size <= max_iterations:
         hyp = s
     else:
         hyp = s[np.sort(gen.choice(s.size, size=max_iterations, replace=False))]
-    counts = np.searchsorted(s, hyp + tolerance, side="right") - np.searchsorted(s, hyp - tolerance, side="left")
-    best = counts.max()
-    centre = float(hyp[counts == best].max())  # tie -> nearer (larger disparity)
-    count = int(best)
+    sup = support(hyp)
+    best = sup.max()
+    centre = float(hyp[sup >= best * (1 - 1e-12)].max())  # tie -> nearer (larger disparity)
     for _ in range(3):  # local refinement: re-centre on the inliers' mean while support does not drop
         lo, hi = np.searchsorted(s, centre - tolerance, "left"), np.searchsorted(s, centre + tolerance, "right")
-        mean = float(s[lo:hi].mean())
-        n_new = int(np.searchsorted(s, mean + tolerance, "right") - np.searchsorted(s, mean - tolerance, "left"))
-        if n_new < count or mean == centre:
+        ws = cw[hi] - cw[lo]
+        mean = float(np.dot(s[lo:hi], w[order][lo:hi]) / ws) if ws > 0 else float(s[lo:hi].mean())
+        new = float(support(np.array([mean]))[0])
+        if new < best or mean == centre:
             break
-        centre, count = mean, n_new
+        centre, best = mean, new
     return centre, np.abs(v - centre) <= tolerance
 
 
-def _clusters(values: np.ndarray, tolerance: float, max_clusters: int, max_iterations: int,
-              gen: np.random.Generator, min_pixels: int) -> list[tuple[float, np.ndarray]]:
-    """Sequential RANSAC: up to ``max_clusters`` (centre, inlier mask) pairs, largest first."""
+def _grow(values: np.ndarray, inliers: np.ndarray, tolerance: float, grow_density: float) -> np.ndarray:
+    """Extend a consistent set over the values that continue it without a gap.
+
+    The object's depths are continuous: starting from the RANSAC band, steps of ``tolerance`` are added
+    on each side while each step holds at least ``grow_density`` times the band's mean density of values
+    per step. A gap (a sparse step) stops the growth, so the background behind the object stays out.
+    """
+    if grow_density <= 0 or not inliers.any():
+        return inliers
+    lo, hi = float(values[inliers].min()), float(values[inliers].max())
+    seed_per_step = inliers.sum() * tolerance / max(hi - lo, tolerance)
+    need = grow_density * seed_per_step
+    s = np.sort(values)
+    count = lambda a, b: int(np.searchsorted(s, b, "right") - np.searchsorted(s, a, "left"))  # noqa: E731
+    while count(hi + 1e-9, hi + tolerance) >= max(need, 1):
+        hi += tolerance
+    while count(lo - tolerance, lo - 1e-9) >= max(need, 1):
+        lo -= tolerance
+    return (values >= lo) & (values <= hi)
+
+
+def _clusters(values: np.ndarray, weights: np.ndarray, tolerance: float, grow_density: float,
+              max_clusters: int, max_iterations: int, gen: np.random.Generator,
+              min_pixels: int) -> list[tuple[float, float, np.ndarray]]:
+    """Sequential RANSAC: up to ``max_clusters`` (weighted support, centre, member mask), heaviest first."""
     remaining = np.ones(values.size, dtype=bool)
-    out: list[tuple[float, np.ndarray]] = []
+    out: list[tuple[float, float, np.ndarray]] = []
     for _ in range(max_clusters):
         idx = np.flatnonzero(remaining)
         if idx.size < min_pixels:
             break
-        centre, inl = ransac_1d(values[idx], tolerance, max_iterations=max_iterations, rng=gen)
+        _, inl = ransac_1d(values[idx], tolerance, weights=weights[idx], max_iterations=max_iterations, rng=gen)
+        inl = _grow(values[idx], inl, tolerance, grow_density)
         if int(inl.sum()) < min_pixels:
             break
         mask = np.zeros(values.size, dtype=bool)
         mask[idx[inl]] = True
-        out.append((centre, mask))
+        w = weights[mask]
+        centre = float(np.dot(values[mask], w) / w.sum()) if w.sum() > 0 else float(values[mask].mean())
+        out.append((float(w.sum()), centre, mask))
         remaining &= ~mask
+    out.sort(key=lambda c: (-c[0], -c[1]))
     return out
 
 
@@ -373,7 +425,9 @@ def localize(
     depth_range: tuple[float, float] = (0.3, 80.0),
     min_pixels: int = 20,
     tolerance_px: float = 1.0,
-    near_support: float = 0.3,
+    near_support: float = 0.5,
+    centre_sigma: float = 0.25,
+    grow_density: float = 0.0,
     max_clusters: int = 3,
     max_iterations: int = 256,
     rng: Any = None,
@@ -402,8 +456,17 @@ def localize(
     tolerance_px : float > 0
         Half width of the inlier band in disparity pixels (a depth band of ``Z**2 / (f B)`` per pixel).
     near_support : float in (0, 1]
-        A nearer consistent set wins over the largest one when it has at least this fraction of the
-        largest set's support (1.0: strictly the largest set, ties to the nearer).
+        A nearer consistent set wins over the heaviest one when it has at least this fraction of the
+        heaviest set's (weighted) support (1.0: strictly the heaviest set, ties to the nearer).
+    centre_sigma : float >= 0
+        Each pixel's vote is weighted by a Gaussian centred on the box with this standard deviation as a
+        fraction of the (shrunk) box width and height: detectors centre the box on the object, while the
+        background and occluders enter from the box edges. 0: every pixel counts the same.
+    grow_density : float in [0, 1]
+        After RANSAC, the set grows over neighbouring disparities, in steps of ``tolerance_px``, while each
+        step holds at least this fraction of the band's density (the object's depths are continuous, a
+        slanted surface such as a car's side is one object); a sparse step (a gap) stops it. 0 (default):
+        no growth, the paper's plain consistent set.
     max_clusters : int >= 1
         How many consistent sets sequential RANSAC extracts per box.
     max_iterations : int >= 1
@@ -437,14 +500,21 @@ def localize(
         box_shrink = float(box_shrink)
         tolerance_px = float(tolerance_px)
         near_support = float(near_support)
+        centre_sigma = float(centre_sigma)
+        grow_density = float(grow_density)
     except (TypeError, ValueError):
-        raise FusionInputError("`box_shrink`, `tolerance_px` and `near_support` must be numbers") from None
+        raise FusionInputError("`box_shrink`, `tolerance_px`, `near_support`, `centre_sigma` and `grow_density` "
+                               "must be numbers") from None
     if not (0.0 <= box_shrink < 1.0):
         raise FusionInputError(f"`box_shrink` must be in [0, 1), got {box_shrink!r}")
     if not (math.isfinite(tolerance_px) and tolerance_px > 0):
         raise FusionInputError(f"`tolerance_px` must be a positive finite number, got {tolerance_px!r}")
     if not (0.0 < near_support <= 1.0):
         raise FusionInputError(f"`near_support` must be in (0, 1], got {near_support!r}")
+    if not (math.isfinite(centre_sigma) and centre_sigma >= 0):
+        raise FusionInputError(f"`centre_sigma` must be >= 0 (0 = uniform weights), got {centre_sigma!r}")
+    if not (math.isfinite(grow_density) and 0 <= grow_density <= 1):
+        raise FusionInputError(f"`grow_density` must be in [0, 1] (0 = no growth), got {grow_density!r}")
     try:
         near, far = (float(v) for v in depth_range)
     except (TypeError, ValueError):
@@ -503,14 +573,21 @@ def localize(
             status.append("out_of_range")
             continue
         if method == "ransac":
-            clusters = _clusters(d, tolerance_px, max_clusters, max_iterations, gen, min_pixels)
+            if centre_sigma > 0:
+                gu = ((uu + 0.5) / (u1 - u0) - 0.5) / centre_sigma
+                gv = ((vv + 0.5) / (v1 - v0) - 0.5) / centre_sigma
+                weights = np.exp(-0.5 * (gu * gu + gv * gv))
+            else:
+                weights = np.ones(d.size)
+            clusters = _clusters(d, weights, tolerance_px, grow_density, max_clusters, max_iterations, gen,
+                                 min_pixels)
             if not clusters:
                 status.append("no_consensus")
                 continue
-            largest = int(clusters[0][1].sum())
+            heaviest = clusters[0][0]
             # The object is in front: the nearest set with enough support wins (ties included).
-            eligible = [c for c in clusters if int(c[1].sum()) >= near_support * largest]
-            mask = max(eligible, key=lambda c: c[0])[1]
+            eligible = [c for c in clusters if c[0] >= near_support * heaviest * (1 - 1e-12)]
+            mask = max(eligible, key=lambda c: c[1])[2]
         else:
             med = float(np.median(d))
             mask = np.abs(d - med) <= tolerance_px
@@ -538,3 +615,61 @@ def localize(
         distance_m=distance, xyz=xyz, inliers=inliers, valid_pixels=valid_pixels, inlier_ratio=ratio,
         spread_m=spread, status=tuple(status), method=method,
     )
+
+
+def sparse_depth_reference(
+    sparse_depth: Any,
+    xyxy: Any,
+    *,
+    box_shrink: float = 0.2,
+    gap_m: float = 0.3,
+    gap_rel: float = 0.03,
+    min_points: int = 5,
+    min_fraction: float = 0.2,
+) -> np.ndarray:
+    """Reference distance per box from sparse depth (projected LiDAR): the nearest dense depth cluster.
+
+    This is how the tests and benchmarks judge :func:`localize` against LiDAR, not a localizer itself.
+
+    1. Take the depths ``> 0`` and finite inside the box shrunk exactly as ``localize`` shrinks it.
+    2. Sort them and cut between neighbours further apart than ``max(gap_m, gap_rel * Z)``: a real
+       surface gives a run of depths without such a gap, a jump to another surface makes one.
+    3. A cluster is *dense* when it holds at least ``max(min_points, min_fraction * n)`` of the box's
+       ``n`` points (stray points bleeding through the box edge or from an occluder corner are not).
+    4. The reference is the **median** depth of the nearest dense cluster (the object is in front of its
+       background); the median, because LiDAR points seen past the object's silhouette from the
+       LiDAR's own viewpoint (0.27 m behind and 0.08 m above the camera) land inside the box too.
+
+    Parameters
+    ----------
+    sparse_depth : (H, W) float array
+        Depth in metres, 0 or NaN where there is no point (KITTI ``lidar_depth_left.npy``).
+    xyxy : (N, 4) array_like
+        Boxes in pixels.
+
+    Returns
+    -------
+    (N,) float64
+        Reference depth in metres, NaN where the box has no dense cluster.
+    """
+    depth = np.asarray(sparse_depth, dtype=np.float64)
+    if depth.ndim != 2:
+        raise FusionInputError(f"`sparse_depth` must be an (H, W) array, got shape {depth.shape}")
+    boxes = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+    if not (0.0 <= float(box_shrink) < 1.0):
+        raise FusionInputError(f"`box_shrink` must be in [0, 1), got {box_shrink!r}")
+    out = np.full(boxes.shape[0], np.nan)
+    h, w = depth.shape
+    for i, box in enumerate(boxes):
+        u0, v0, u1, v1 = _shrunk_pixel_box(box, float(box_shrink), w, h)
+        sub = depth[v0:v1, u0:u1]
+        z = np.sort(sub[np.isfinite(sub) & (sub > 0)])
+        if z.size == 0:
+            continue
+        cuts = np.flatnonzero(np.diff(z) > np.maximum(gap_m, gap_rel * z[:-1])) + 1
+        need = max(min_points, min_fraction * z.size)
+        for cluster in np.split(z, cuts):
+            if cluster.size >= need:
+                out[i] = float(np.median(cluster))
+                break
+    return out

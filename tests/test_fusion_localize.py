@@ -17,6 +17,7 @@ from stereo_classic.fusion import (
     direction_phrase,
     localize,
     ransac_1d,
+    sparse_depth_reference,
 )
 from tests.test_fusion_scenes import disparity_of, make_rig, planted_scene
 
@@ -106,7 +107,7 @@ def test_tie_goes_to_the_nearer_set():
     rig = make_rig(40, 20, focal_px=500.0, baseline_m=0.1)
     d = np.full((20, 40), 10.0, np.float32)
     d[:, 20:] = 25.0  # exactly half near (25 px) and half far (10 px)
-    objs = localize(np.array([[0, 0, 40, 20]]), d, rig, box_shrink=0.0, near_support=1.0)
+    objs = localize(np.array([[0, 0, 40, 20]]), d, rig, box_shrink=0.0, near_support=1.0, centre_sigma=0)
     assert objs.distance_m[0] == pytest.approx(500 * 0.1 / 25.0)
 
 
@@ -114,9 +115,9 @@ def test_strict_largest_set_with_near_support_one():
     rig = make_rig(40, 20, focal_px=500.0, baseline_m=0.1)
     d = np.full((20, 40), 10.0, np.float32)
     d[:, 30:] = 25.0  # near set has a third of the far set's support
-    objs = localize(np.array([[0, 0, 40, 20]]), d, rig, box_shrink=0.0, near_support=1.0)
+    objs = localize(np.array([[0, 0, 40, 20]]), d, rig, box_shrink=0.0, near_support=1.0, centre_sigma=0)
     assert objs.distance_m[0] == pytest.approx(5.0)
-    objs = localize(np.array([[0, 0, 40, 20]]), d, rig, box_shrink=0.0, near_support=0.3)
+    objs = localize(np.array([[0, 0, 40, 20]]), d, rig, box_shrink=0.0, near_support=0.3, centre_sigma=0)
     assert objs.distance_m[0] == pytest.approx(2.0)
 
 
@@ -341,3 +342,43 @@ def test_property_well_formed_result(case):
         else:
             assert math.isnan(objs.distance_m[i])
     json.dumps(objs.to_json(), allow_nan=False)
+
+
+# --- the LiDAR reference itself ----------------------------------------------------------------------
+
+def test_sparse_depth_reference_picks_the_nearest_dense_cluster():
+    rng = np.random.default_rng(7)
+    depth = np.zeros((100, 200))
+    sample = rng.random((100, 200)) < 0.1  # sparse like projected LiDAR
+    scene = np.full((100, 200), 30.0)                   # background wall
+    scene[20:80, 50:150] = 10.0 + 0.02 * rng.standard_normal((60, 100))  # the object
+    scene[20:80, 50:58] = 4.0                           # a thin occluder at the box edge (< 20 %)
+    depth[sample] = scene[sample]
+    depth[3, 3] = 2.0                                   # a stray point outside the box
+    ref = sparse_depth_reference(depth, [[40, 10, 160, 90], [0, 0, 10, 10], [170, 0, 200, 20]])
+    assert ref[0] == pytest.approx(10.0, abs=0.02)
+    assert math.isnan(ref[1])                           # only one point there: no dense cluster (min 5)
+    assert ref[2] == pytest.approx(30.0)                # only the wall
+
+
+def test_sparse_depth_reference_occluder_that_is_dense_wins_and_bad_input():
+    depth = np.zeros((50, 50))
+    depth[::2, ::2] = 20.0
+    depth[::2, 10:26:2] = 5.0  # a large near object: dense, nearest
+    assert sparse_depth_reference(depth, [[0, 0, 50, 50]], box_shrink=0.0)[0] == 5.0
+    with pytest.raises(FusionInputError, match="sparse_depth"):
+        sparse_depth_reference(np.zeros(5), [[0, 0, 1, 1]])
+    with pytest.raises(FusionInputError, match="box_shrink"):
+        sparse_depth_reference(depth, [[0, 0, 1, 1]], box_shrink=1.5)
+
+
+def test_grow_density_merges_a_slanted_surface():
+    """A surface slanting from 3 to 5 m: without growth one 2 px slice, with growth all of it."""
+    rig = make_rig(200, 60, focal_px=500.0, baseline_m=0.2)
+    z = np.linspace(3.0, 5.0, 200)[None, :].repeat(60, axis=0)
+    d = (100.0 / z).astype(np.float32)
+    box = np.array([[0, 0, 200, 60]])
+    plain = localize(box, d, rig, box_shrink=0.0, centre_sigma=0)
+    grown = localize(box, d, rig, box_shrink=0.0, centre_sigma=0, grow_density=0.2)
+    assert grown.inliers[0] >= 0.98 * d.size and plain.inliers[0] < d.size / 5
+    assert grown.distance_m[0] == pytest.approx(z.mean(), rel=0.01)
