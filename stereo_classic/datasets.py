@@ -42,11 +42,12 @@ import re
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import cv2
 import numpy as np
 
+from calib import RectifiedRig
 from stereo_classic.io import (
     FileFormatError,
     read_image,
@@ -54,9 +55,6 @@ from stereo_classic.io import (
     read_pfm,
     read_scaled_disparity,
 )
-
-if TYPE_CHECKING:  # pragma: no cover
-    from calib import RectifiedRig
 
 __all__ = [
     "Scene",
@@ -79,16 +77,6 @@ __all__ = [
 ]
 
 _IMAGE_EXTS = (".png", ".ppm", ".pgm", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
-
-
-def _rectified_rig_class() -> type:
-    """``calib.RectifiedRig`` (imported lazily: calib is a separate package)."""
-    import calib
-
-    cls = getattr(calib, "RectifiedRig", None)
-    if cls is None:  # calib's package exports not in place yet
-        from calib.rectified import RectifiedRig as cls  # type: ignore[no-redef]
-    return cls
 
 
 # --------------------------------------------------------------------------------------------------
@@ -289,7 +277,7 @@ def load_middlebury2014(folder: str | os.PathLike) -> Scene:
     rig, max_disp = None, None
     calib_path = d / "calib.txt"
     if calib_path.is_file():
-        rig = _rectified_rig_class().from_middlebury(calib_path, image_size=(hw[1], hw[0]))
+        rig = RectifiedRig.from_middlebury(calib_path, image_size=(hw[1], hw[0]))
         ndisp = _parse_key_values(calib_path).get("ndisp")
         if ndisp is not None:
             try:
@@ -435,7 +423,7 @@ def load_oakd(folder: str | os.PathLike, name: str) -> Scene:
     json_path = d / _OAKD_JSON
     if not json_path.is_file():
         raise FileNotFoundError(f"OAK-D calibration not found: {json_path}")
-    rig = _rectified_rig_class().from_oakd_json(json_path)
+    rig = RectifiedRig.from_oakd_json(json_path)
     return Scene(name, left, right, None, None, rig, None, _oakd_max_disparity(json_path, rig), None, "oakd", d)
 
 
@@ -589,7 +577,7 @@ def _kitti_lidar_scene(
 ) -> Scene:
     left, right = _read_pair(left_path, right_path)
     h, w = left.shape[:2]
-    rig = _rectified_rig_class().from_kitti(calib_path, left=2, right=3, image_size=(w, h))
+    rig = RectifiedRig.from_kitti(calib_path, left=2, right=3, image_size=(w, h))
     depth = points_cam = None
     max_disp = None
     if velo_path is not None:
@@ -709,7 +697,7 @@ def load_kitti_stereo(root: str | os.PathLike, frame: int | str) -> Scene:
     calib_path = _kitti_stereo_calib(t, fid)
     if calib_path is not None:
         cams = (0, 1) if dirs[0] == "image_0" else (2, 3)
-        rig = _rectified_rig_class().from_kitti(calib_path, left=cams[0], right=cams[1], image_size=(hw[1], hw[0]))
+        rig = RectifiedRig.from_kitti(calib_path, left=cams[0], right=cams[1], image_size=(hw[1], hw[0]))
     return Scene(fid, left, right, gt, mask, rig, None, _range_from_gt(gt), None, "kitti_stereo", t)
 
 
@@ -785,7 +773,7 @@ def demo_scene() -> Scene:
     gt = np.where(np.isfinite(disp), disp, np.nan).astype(np.float32)
     h, w = gt.shape
     cx = (w - 1) / 2.0
-    rig = _rectified_rig_class()(
+    rig = RectifiedRig(
         focal_px=DEMO_FOCAL_PX,
         cx_left=cx,
         cx_right=cx + DEMO_DOFFS_PX,

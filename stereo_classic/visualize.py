@@ -208,7 +208,7 @@ def draw_boxes(
     for (x1, y1, x2, y2), text, color in zip(boxes, texts, box_colors):
         p1 = (int(np.clip(round(x1), 0, w - 1)), int(np.clip(round(y1), 0, h - 1)))
         p2 = (int(np.clip(round(x2), 0, w - 1)), int(np.clip(round(y2), 0, h - 1)))
-        cv2.rectangle(canvas, p1, p2, color, line, cv2.LINE_AA)
+        cv2.rectangle(canvas, p1, p2, color, line, cv2.LINE_8)
         if not text:
             continue
         (tw, th), base = cv2.getTextSize(text, font, scale, text_thickness)
