@@ -83,7 +83,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     group.add_argument("--census-window", type=_census_window, default=defaults.census_window,
                        metavar="WxH", help="census window, odd width x odd height, at most 64 bits (default: 9x7)")
     group.add_argument("--lr-check", type=_lr_check, default=defaults.lr_check, metavar="PX|off",
-                       help="largest left-right disparity difference, px, or 'off' (default: %(default)s)")
+                       help="largest left-right disparity difference, px, or 'off' (default: off; 1 for fewer, more "
+                            "reliable pixels)")
     group.add_argument("--paths", type=int, choices=(4, 8), default=defaults.paths, help="aggregation directions (default: %(default)s)")
     group.add_argument("--adaptive-p2", action="store_true", help="divide P2 by the intensity gradient")
     group.add_argument("--no-subpixel", dest="subpixel", action="store_false", help="integer disparities only")

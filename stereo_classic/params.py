@@ -36,8 +36,8 @@ COSTS = ("census", "sad")
 MAX_BLOCK_SIZE = 21
 #: Largest accepted disparity range; far above any real camera and image, it only keeps the int16 kernels safe.
 MAX_NUM_DISPARITIES = 4096
-#: Largest accepted P1 / P2 here; the kernels check the tighter limit of their int16 sums per cost
-#: when matching (e.g. P2 <= 1344 for census 9x7), before allocating anything.
+#: Largest P1 / P2 accepted before the kernels' own, tighter limit for their int16 sums, which depends on
+#: the cost (e.g. P2 <= 1343 for census 9x7; SAD penalties are scaled with the cost).
 MAX_PENALTY = 32767
 #: Census windows whose bit string fits the 64-bit kernel (width * height - 1 <= 64 bits).
 _MAX_CENSUS_BITS = 64
@@ -103,6 +103,15 @@ def default_memory_limit() -> int:
     return physical // 2 if physical else 4 * 1024**3
 
 
+def _kernel_penalty_check(cost: str, block_size: int, census_window: tuple[int, int], p1: int, p2: int) -> None:
+    """The kernels' limit on P2 (their int16 path sums must not overflow); ValueError naming `p2`."""
+    try:
+        from stereo_classic._sgm_core import check_penalties
+    except ImportError:  # kernels unavailable: compute_disparity will say so
+        return
+    check_penalties(cost, block_size, census_window, p1, p2)
+
+
 @dataclass(frozen=True)
 class SGMParams:
     """Everything that decides a disparity map, checked when built.
@@ -120,7 +129,9 @@ class SGMParams:
         Smoothness penalties for a disparity change of 1 px and of more than 1 px (``p2 > p1``).
         None uses defaults scaled to the cost: census 15 / 80 (measured best on real scenes);
         SAD ``8 * block_size**2`` / ``32 * block_size**2`` (OpenCV's rule with one channel).
-        See ``effective_p1`` / ``effective_p2``.
+        Units are those of the cost: Hamming bits for census, raw window SAD for "sad" (the kernels
+        scale SAD and the penalties together). P2 is limited by the int16 path sums (census 9x7:
+        at most 1343). See ``effective_p1`` / ``effective_p2``.
     cost : {"census", "sad"}
         Matching cost. "census" (default, robust to exposure differences between the cameras)
         or "sad", the paper's sum of absolute differences on a gradient-prefiltered image.
@@ -132,7 +143,9 @@ class SGMParams:
         Uniqueness ratio in percent, 0 .. 100: the best cost must beat the second best (away
         from the winner's neighbours) by this margin, else the pixel is unknown. 0 = off (default).
     lr_check : float or None
-        Maximum left-right disparity difference in pixels; None = no left-right check. Default 1.0.
+        Maximum left-right disparity difference in pixels; None = no left-right check (default:
+        on the real scenes it removes more good pixels than bad ones unless holes are filled;
+        use 1.0 for fewer, more reliable pixels, see the README).
     subpixel : bool
         Parabola subpixel refinement. Default True.
     speckle_size : int
@@ -162,7 +175,7 @@ class SGMParams:
     census_window: tuple[int, int] = (9, 7)
     adaptive_p2: bool = False
     uniqueness: float = 0.0
-    lr_check: float | None = 1.0
+    lr_check: float | None = None
     subpixel: bool = True
     speckle_size: int = 100
     speckle_range: float = 2.0
@@ -214,6 +227,7 @@ class SGMParams:
         if p2 <= p1:
             raise ValueError(f"`p2` must be larger than `p1`, got p1={p1} and p2={p2}"
                              + (" (None means the default for this cost)" if self.p1 is None or self.p2 is None else ""))
+        _kernel_penalty_check(self.cost, self.block_size, self.census_window, p1, p2)
         for field in ("adaptive_p2", "subpixel", "fill_holes"):
             value = getattr(self, field)
             if not isinstance(value, bool):

@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import re
-import types
 
 import cv2
 import numpy as np
@@ -25,66 +23,6 @@ from stereo_classic.matcher import (
 )
 from stereo_classic.params import MEMORY_LIMIT_ENV, SGMParams, default_memory_limit, parse_bytes
 from stereo_classic.postprocess import fill_holes, filter_speckles
-
-def _core_ready() -> bool:
-    try:
-        core = importlib.import_module("stereo_classic._sgm_core")
-    except ImportError:
-        return False
-    return all(hasattr(core, name) for name in ("sgm_match", "memory_bytes"))
-
-
-HAVE_CORE = _core_ready()
-needs_core = pytest.mark.skipif(not HAVE_CORE, reason="stereo_classic._sgm_core (sgm-core's kernels) not present yet")
-
-
-# --------------------------------------------------------------------------------------------------
-# A slow numpy stand-in for the kernels, used only while stereo_classic._sgm_core is absent so that
-# the API plumbing can be tested; accuracy tests need the real kernels (needs_core).
-# --------------------------------------------------------------------------------------------------
-def _fallback_match(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
-                    paths, adaptive_p2, uniqueness, lr_check, subpixel, threads):
-    h, w = left.shape
-    big = np.int32(1 << 30)
-    vol = np.full((h, w, num_disparities), big, np.int32)
-    lf, rf = left.astype(np.float32), right.astype(np.float32)
-    for k in range(num_disparities):
-        d = min_disparity + k
-        diff = np.full((h, w), 255.0, np.float32)
-        if 0 <= d < w:
-            diff[:, d:] = np.abs(lf[:, d:] - rf[:, : w - d])
-        elif -w < d < 0:
-            diff[:, : w + d] = np.abs(lf[:, : w + d] - rf[:, -d:])
-        box = cv2.boxFilter(diff, -1, (block_size, block_size), normalize=False, borderType=cv2.BORDER_REFLECT)
-        x = np.arange(w)
-        vol[:, :, k] = np.where(((x - d >= 0) & (x - d < w))[None, :], np.rint(box).astype(np.int32), big)
-    idx = np.argmin(vol, axis=2)
-    disp = (idx + min_disparity).astype(np.float32)
-    disp[np.take_along_axis(vol, idx[..., None], 2)[..., 0] >= big] = np.nan
-    right_disp = None
-    if lr_check is not None:
-        rv = np.full_like(vol, big)
-        for k in range(num_disparities):
-            d = min_disparity + k
-            for xr in range(w):
-                if 0 <= xr + d < w:
-                    rv[:, xr, k] = vol[:, xr + d, k]
-        right_disp = (np.argmin(rv, axis=2) + min_disparity).astype(np.float32)
-        xr = np.rint(np.arange(w)[None, :] - np.nan_to_num(disp, nan=0.0)).astype(int)
-        dr = np.take_along_axis(right_disp, np.clip(xr, 0, w - 1), 1)
-        disp[(xr < 0) | (xr >= w) | (np.abs(dr - disp) > lr_check)] = np.nan
-    return disp, right_disp, {"cost": 0.0, "aggregate": 0.0, "select": 0.0}
-
-
-def _fallback_memory(height, width, num_disparities, *, paths=8, lr_check=True, cost="census", block_size=5):
-    return 2 * height * width * num_disparities + 16 * width * num_disparities
-
-
-@pytest.fixture(autouse=True)
-def _kernels(monkeypatch):
-    if not HAVE_CORE:
-        fake = types.SimpleNamespace(sgm_match=_fallback_match, memory_bytes=_fallback_memory)
-        monkeypatch.setattr(matcher_mod, "_core", lambda: fake)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -277,9 +215,8 @@ class TestComputeDisparity:
         assert sparse.validity["filled"] == 0
 
 
-@needs_core
 class TestSyntheticAccuracy:
-    """Known-disparity pairs through the public API with the real kernels."""
+    """Known-disparity pairs through the public API."""
 
     @pytest.mark.parametrize("cost", ["census", "sad"])
     @pytest.mark.parametrize("min_disparity, shift", [(0, 11), (-8, -5), (4, 20)])
@@ -399,10 +336,12 @@ class TestErrors:
         with pytest.raises(ValueError, match=f"`{field}`"):
             compute_disparity(*pair, **kwargs)
 
-    @needs_core
-    def test_penalty_beyond_int16_sums(self, pair):
-        with pytest.raises(ValueError, match="`p2`"):
-            compute_disparity(*pair, num_disparities=16, p1=10, p2=30000)
+    @pytest.mark.parametrize("kwargs", [dict(p1=10, p2=30000), dict(p1=10, p2=1400), dict(census_window=(3, 3), p2=1500)])
+    def test_penalty_beyond_int16_sums(self, pair, kwargs):
+        with pytest.raises(ValueError, match="`p2` too large"):
+            SGMParams(**kwargs)
+        with pytest.raises(ValueError, match="`p2` too large"):
+            compute_disparity(*pair, num_disparities=16, **kwargs)
 
     def test_params_wrong_type(self, pair):
         with pytest.raises(ValueError, match="`params` must be an SGMParams"):

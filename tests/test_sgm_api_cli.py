@@ -20,19 +20,6 @@ def _core_ready() -> bool:
     return all(hasattr(core, name) for name in ("sgm_match", "memory_bytes"))
 
 
-HAVE_CORE = _core_ready()
-
-
-@pytest.fixture(autouse=True)
-def _kernels(monkeypatch):
-    """While the kernels are absent, use the numpy stand-in of test_sgm_api (API plumbing only)."""
-    if not HAVE_CORE:
-        from test_sgm_api import _fallback_match, _fallback_memory
-
-        fake = types.SimpleNamespace(sgm_match=_fallback_match, memory_bytes=_fallback_memory)
-        monkeypatch.setattr(matcher_mod, "_core", lambda: fake)
-
-
 @pytest.fixture
 def pair_files(tmp_path):
     rng = np.random.default_rng(7)
@@ -77,13 +64,13 @@ def test_options_reach_the_matcher(pair_files, tmp_path, monkeypatch):
     out = tmp_path / "o.pfm"
     args = ["disparity", str(lp), str(rp), "-o", str(out), "--num-disparities", "20", "--min-disparity", "-2",
             "--cost", "sad", "--block-size", "3", "--p1", "10", "--p2", "90", "--uniqueness", "5",
-            "--speckle-size", "0", "--speckle-range", "1.5", "--lr-check", "off", "--paths", "4",
+            "--speckle-size", "0", "--speckle-range", "1.5", "--lr-check", "2", "--paths", "4",
             "--census-window", "7x5", "--no-subpixel", "--fill-holes", "--memory-limit", "1G", "--threads", "1",
             "--no-png"]
     assert main(args) == 0
     p = seen["params"]
     assert (p.num_disparities, p.min_disparity, p.cost, p.block_size, p.p1, p.p2) == (20, -2, "sad", 3, 10, 90)
-    assert (p.uniqueness, p.speckle_size, p.speckle_range, p.lr_check, p.paths) == (5.0, 0, 1.5, None, 4)
+    assert (p.uniqueness, p.speckle_size, p.speckle_range, p.lr_check, p.paths) == (5.0, 0, 1.5, 2.0, 4)
     assert (p.census_window, p.subpixel, p.fill_holes, p.memory_limit, p.threads) == ((7, 5), False, True, 2**30, 1)
     assert out.exists() and not (tmp_path / "o.png").exists()
 
