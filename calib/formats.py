@@ -495,11 +495,11 @@ def read_middlebury_calib(path: _PathLike) -> dict[str, Any]:
         if not sep or not key:
             raise CalibrationError(f"{path}: line {line_no} is not `key=value`: {line[:60]!r}")
         match = _MATRIX_RE.match(value)
+        rows = [r.split() for r in match.group(1).split(";")] if match else []
+        if match and (len(rows) != 3 or any(len(r) != 3 for r in rows)):
+            raise CalibrationError(f"{path}: key `{key}` must be a 3x3 matrix [a b c; d e f; g h i], got {value!r}")
         try:
             if match:
-                rows = [r.split() for r in match.group(1).split(";")]
-                if len(rows) != 3 or any(len(r) != 3 for r in rows):
-                    raise CalibrationError(f"{path}: key `{key}` must be a 3x3 matrix [a b c; d e f; g h i], got {value!r}")
                 out[key] = np.array([[float(v) for v in r] for r in rows], dtype=np.float64)
             else:
                 out[key] = float(value)
@@ -597,7 +597,7 @@ def load_rig(path: _PathLike, *, image_size: tuple[int, int] | None = None) -> S
         return read_oakd_json(p)
     if re.search(r"^\s*cam0\s*=", text, re.MULTILINE):
         return read_middlebury(p, image_size=image_size)
-    if re.search(r"^(P_rect_0\d|P\d):", text, re.MULTILINE):
+    if not head.startswith(("%YAML", "<")) and re.search(r"^(P_rect_0\d|P\d):[ \t]*[-+.\d]", text, re.MULTILINE):
         return read_kitti_rectified(p, image_size=image_size)
     st = _Storage(p)
     if st.first("K1", "M1", "cameraMatrix1", "camera_matrix_left"):
