@@ -111,6 +111,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         unknown = [k for k in options if k.strip().lower() not in ("input_size", "size", "color", "pixel_scale", "scale", "mean", "std", "output_scale", "pad_multiple")]
         if unknown:
             raise ValueError(f"`--onnx-option` keys must be input_size, color, pixel_scale, mean, std, output_scale or pad_multiple, got {unknown}")
+        if args.methods:
+            from benchmarks.methods import default_methods
+
+            default_methods(args.methods)  # unknown names are a usage error, before any work
         data_dir = args.data if args.data is not None else default_data_dir()
         if args.data is None:
             log.info("data: %s", data_dir if data_dir else "built-in demo scene (no ../shared/data, no $STEREO_CLASSIC_DATA)")

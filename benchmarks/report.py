@@ -262,8 +262,7 @@ def figure_disparities(
     panel_w = 3.2
     panel_h = panel_w * h / w + 0.3
     fig, axes = plt.subplots(len(rows_spec), panels_per_row, figsize=(panel_w * panels_per_row, panel_h * len(rows_spec) + 0.9), squeeze=False)
-    turbo = plt.get_cmap("turbo").copy()
-    turbo.set_bad("black")
+    turbo = plt.get_cmap("turbo").with_extremes(bad="black")
     errmap = plt.get_cmap("YlOrRd")
     has_gt = np.isfinite(gt) if gt is not None else None
     for r, row in enumerate(rows_spec):
