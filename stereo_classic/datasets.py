@@ -289,15 +289,31 @@ def load_middlebury2014(folder: str | os.PathLike) -> Scene:
     return Scene(d.name, left, right, gt, mask, rig, None, max_disp, None, "middlebury2014", d)
 
 
-#: (left stem, right stem, ground-truth stem, {gt extension: scale}) of the older Middlebury sets.
-_CLASSIC_LAYOUTS: tuple[tuple[str, str, str, dict[str, float]], ...] = (
+#: (left stem, right stem, ground-truth stem, {gt extension: scale or None}) of the older Middlebury sets;
+#: None: the map stores full-resolution disparities, the scale follows from the image width.
+_CLASSIC_LAYOUTS: tuple[tuple[str, str, str, dict[str, float | None]], ...] = (
     ("im3", "im4", "disp3", {".pgm": 16.0, ".png": 16.0}),  # 2001 Tsukuba
-    ("im2", "im6", "disp2", {".pgm": 8.0, ".png": 4.0}),  # 2001 Venus & co (pgm x8), 2003 Cones/Teddy (png x4)
-    ("view1", "view5", "disp1", {".png": 1.0, ".pgm": 1.0}),  # 2005 / 2006
+    ("im2", "im6", "disp2", {".pgm": 8.0, ".png": None}),  # 2001 Venus & co (pgm x8), 2003 Cones/Teddy (png)
+    ("view1", "view5", "disp1", {".png": None, ".pgm": None}),  # 2005 / 2006
 )
 
+#: Full-resolution width and the published sizes (factors) of the sets whose maps hold
+#: full-resolution disparities: 2003 Cones/Teddy 1800 px (full, half, quarter), 2005/2006
+#: 1240..1396 px (full, half, third).
+_FULL_SIZES = {"im2": (1800, (1, 2, 4)), "view1": (1390, (1, 2, 3))}
 
-def _classic_layout(d: Path) -> tuple[str, str, str, dict[str, float]] | None:
+
+def _full_resolution_scale(left_stem: str, width: int) -> float:
+    """Stored value per pixel of disparity for maps that hold full-resolution disparities.
+
+    The published size whose width is nearest: 2003 full 1800 px (x1), half 900 (x2), quarter 450
+    (x4); 2005/2006 full 1240..1396 (x1), half 620..698 (x2), third 413..465 (x3).
+    """
+    full, factors = _FULL_SIZES[left_stem]
+    return float(min(factors, key=lambda f: abs(full / f - width)))
+
+
+def _classic_layout(d: Path) -> tuple[str, str, str, dict[str, float | None]] | None:
     for layout in _CLASSIC_LAYOUTS:
         if _find(d, layout[0]) is not None and _find(d, layout[1]) is not None:
             return layout
@@ -311,12 +327,14 @@ def load_middlebury_classic(folder: str | os.PathLike, *, disparity_scale: float
 
     * 2001 Tsukuba ``im3``/``im4`` + ``disp3.pgm``: x16;
     * 2001 Venus, Sawtooth, Bull, Poster, Barn ``im2``/``im6`` + ``disp2.pgm``: x8;
-    * 2003 Cones/Teddy quarter size ``im2``/``im6`` + ``disp2.png``: x4;
-    * 2005/2006 ``view1``/``view5`` + ``disp1.png``: x1 (the maps hold the disparity of the image
-      size they ship with, as other loaders, e.g. CroCo-Stereo's, read them).
+    * 2003 Cones/Teddy ``im2``/``im6`` + ``disp2.png``: the maps hold full-resolution disparities,
+      so quarter size (450 px wide, the common download) is x4, half size x2, full size x1;
+    * 2005/2006 ``view1``/``view5`` + ``disp1.png``: likewise full-resolution disparities, so third
+      size (about 450 px wide) is x3, half size x2, full size (about 1390 px) x1.
 
-    Pass ``disparity_scale`` to override (e.g. the 2003 half- or full-size maps). These datasets have
-    no calibration: ``rig`` is None, ``max_disparity`` is the largest ground truth rounded up to 16.
+    For 2003 and 2005/2006 the published size nearest to the image width gives the factor. Pass
+    ``disparity_scale`` to override. These datasets have no calibration: ``rig`` is None and
+    ``max_disparity`` is the largest ground truth rounded up to a multiple of 16.
     """
     d = _folder(folder, "Middlebury scene folder")
     layout = _classic_layout(d)
@@ -329,7 +347,9 @@ def load_middlebury_classic(folder: str | os.PathLike, *, disparity_scale: float
     gt = None
     gt_path = _find(d, gt_stem, tuple(scales))
     if gt_path is not None:
-        scale = scales[gt_path.suffix.lower()] if disparity_scale is None else disparity_scale
+        scale = disparity_scale
+        if scale is None:
+            scale = scales[gt_path.suffix.lower()] or _full_resolution_scale(left_stem, left.shape[1])
         gt = read_scaled_disparity(gt_path, scale)
         _check_shape(gt, left.shape[:2], gt_path, "ground truth")
     year = {"im3": "2001", "view1": "2005/2006"}.get(left_stem)

@@ -302,19 +302,35 @@ def test_kitti_object_layout_equals_single_folder(shared_data: Path, tmp_path: P
     assert [s.name for s in iter_scenes(tmp_path)] == ["000007"]
 
 
-def test_middlebury_2005_layout_and_scale_override(tmp_path: Path) -> None:
+@pytest.mark.parametrize(("width", "scale"), [(30, 3.0), (463, 3.0), (695, 2.0), (1240, 1.0), (1390, 1.0)])
+def test_middlebury_2005_layout_and_scale(tmp_path: Path, width: int, scale: float) -> None:
+    # 2005/2006 maps hold full-resolution disparities: third size (~450 px wide) x3, half x2, full x1
     rng = np.random.default_rng(7)
-    left, right = _pair(rng)
+    left, right = _pair(rng, 6, width)
     write_image(tmp_path / "view1.png", left)
     write_image(tmp_path / "view5.png", right)
-    d = rng.integers(10, 80, (20, 30)).astype(np.float64)
-    d[3, 3] = np.nan
-    write_scaled_disparity(tmp_path / "disp1.png", d, 1.0)
+    raw = rng.integers(10, 240, (6, width)).astype(np.float64)
+    raw[3, 3] = np.nan
+    write_scaled_disparity(tmp_path / "disp1.png", raw, 1.0)
     s = load_scene(tmp_path)
-    assert s.layout == "middlebury2005/2006" and s.max_disparity == 80
-    np.testing.assert_array_equal(s.gt_disparity, d.astype(np.float32))
-    s3 = load_middlebury_classic(tmp_path, disparity_scale=3)
-    np.testing.assert_allclose(s3.gt_disparity, d / 3, rtol=1e-6)
+    assert s.layout == "middlebury2005/2006"
+    np.testing.assert_allclose(s.gt_disparity, raw / scale, rtol=1e-6)
+    assert s.max_disparity == int(np.ceil(np.nanmax(raw) / scale / 16) * 16)
+    s7 = load_middlebury_classic(tmp_path, disparity_scale=7)
+    np.testing.assert_allclose(s7.gt_disparity, raw / 7, rtol=1e-6)
+
+
+@pytest.mark.parametrize(("width", "scale"), [(450, 4.0), (900, 2.0), (1800, 1.0), (40, 4.0)])
+def test_middlebury_2003_png_scale_follows_size(tmp_path: Path, width: int, scale: float) -> None:
+    rng = np.random.default_rng(11)
+    left, right = _pair(rng, 4, width)
+    write_image(tmp_path / "im2.png", left)
+    write_image(tmp_path / "im6.png", right)
+    raw = rng.integers(1, 250, (4, width)).astype(np.float64)
+    write_scaled_disparity(tmp_path / "disp2.png", raw, 1.0)
+    s = load_middlebury_classic(tmp_path)
+    assert s.layout == "middlebury2003"
+    np.testing.assert_allclose(s.gt_disparity, raw / scale, rtol=1e-6)
 
 
 def test_middlebury2014_without_ground_truth_or_calib(tmp_path: Path) -> None:
