@@ -121,11 +121,19 @@ def test_left_border_band_is_matched(results, name):
     assert v["border_valid"] > 0.85 * v["border"]
 
 
-def test_census_survives_exposure_change(shared_data):
-    """Right image with gain 1.3 and offset +20: census loses at most 2 points of bad-2."""
-    scene = load_scene(shared_data / SCENES["Adirondack"])
+@pytest.mark.parametrize("name", ["Adirondack", "Cones"])
+def test_census_survives_exposure_change(shared_data, name):
+    """Right image with gain 1.3 and offset +20: census loses at most 2 points of bad-2, SAD more.
+
+    Measured: Adirondack census 11.5 -> 11.9, SAD 12.6 -> 18.2; Cones census 13.3 -> 13.8, SAD 14.9 -> 21.2.
+    """
+    scene = load_scene(shared_data / SCENES[name])
     gt = scene.gt_disparity
     brighter = np.clip(scene.right.astype(np.float32) * 1.3 + 20, 0, 255).astype(np.uint8)
-    same = bad2(compute_disparity(scene.left, scene.right, num_disparities=64).disparity, gt)
-    changed = bad2(compute_disparity(scene.left, brighter, num_disparities=64).disparity, gt)
-    assert changed - same <= 2.0, (same, changed)
+    loss = {}
+    for cost in ("census", "sad"):
+        same = bad2(compute_disparity(scene.left, scene.right, num_disparities=64, cost=cost).disparity, gt)
+        changed = bad2(compute_disparity(scene.left, brighter, num_disparities=64, cost=cost).disparity, gt)
+        loss[cost] = changed - same
+    assert loss["census"] <= 2.0, loss
+    assert loss["sad"] > loss["census"] + 2.0, loss
