@@ -1,0 +1,245 @@
+"""The whole pipeline on one stereo pair: rectify, disparity, detect, localize.
+
+``Localizer`` holds the matcher, the detector session and a worker thread across frames; calling it on
+``(left, right)`` gives a :class:`PipelineResult`. The detector runs concurrently with the matcher in a
+second thread (onnxruntime and the numba kernels release the GIL) unless ``concurrent=False``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Iterable, Mapping
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from stereo_classic.fusion import LocalizedObjects, localize
+
+__all__ = ["Localizer", "PipelineResult", "format_timings", "STAGES"]
+
+#: Stage names in ``PipelineResult.timings_ms`` (in order).
+STAGES: tuple[str, ...] = ("rectify", "disparity", "detect", "localize", "total")
+
+
+@dataclass(frozen=True)
+class PipelineResult:
+    """What :class:`Localizer` returns for one stereo pair.
+
+    Attributes
+    ----------
+    left, right : (H, W, 3) or (H, W) uint8
+        The rectified images the matcher saw (BGR).
+    disparity : stereo_classic.DisparityMap
+        Left disparity, pixels, NaN unknown.
+    detections : detectors.Detections or None
+        None when the localizer has no detector (depth only).
+    objects : LocalizedObjects
+        One row per detection (empty without a detector).
+    timings_ms : dict[str, float]
+        Wall milliseconds per stage (:data:`STAGES`); "detect" runs concurrently with "disparity"
+        when the localizer is concurrent, so the stages need not add up to "total".
+    """
+
+    left: np.ndarray
+    right: np.ndarray
+    disparity: Any
+    detections: Any
+    objects: LocalizedObjects
+    timings_ms: dict[str, float] = field(default_factory=dict)
+
+
+def _as_params(params: Any) -> Any:
+    from stereo_classic.params import SGMParams
+
+    if params is None:
+        return SGMParams()
+    if isinstance(params, SGMParams):
+        return params
+    if isinstance(params, Mapping):
+        return SGMParams(**params)
+    raise ValueError(f"`params` must be None, an SGMParams or a dict of its fields, got {type(params).__name__}")
+
+
+class Localizer:
+    """Rectify, match, detect and localize, reusing the matcher and the detector across frames.
+
+    Parameters
+    ----------
+    rig : calib.RectifiedRig
+        Geometry of the pair (with rectification maps for raw pairs).
+    detector : object with ``detect(image) -> Detections``, a model name/path, or None
+        None: depth only. A string or path is resolved with ``detectors.resolve_model`` and opened
+        as ``detectors.OnnxDetector(model, **detector_options)``.
+    params : SGMParams or dict, optional
+        Matcher parameters (default ``SGMParams()``).
+    method, box_shrink, depth_range, min_pixels, tolerance_px, near_support, centre_sigma, grow_density
+        Passed to :func:`stereo_classic.localize`.
+    seed : int
+        Every frame uses ``rng=seed``, so a frame's result does not depend on the frames before it.
+    classes : iterable of str, optional
+        Keep only detections of these class names.
+    concurrent : bool or None
+        Run the detector in a worker thread while the matcher runs. None: when more than one CPU.
+    detector_options : dict, optional
+        Keyword arguments for ``OnnxDetector`` when ``detector`` is a name or path.
+
+    Examples
+    --------
+    >>> loc = Localizer(rig, "yolox_nano")              # doctest: +SKIP
+    >>> result = loc(left, right)                       # doctest: +SKIP
+    >>> print(result.objects.format_table())            # doctest: +SKIP
+    car 0.91 12.40 m x=-1.20 y=+0.80 z=12.40 slightly left
+    """
+
+    def __init__(self, rig: Any, detector: Any = None, params: Any = None, *, method: str = "ransac",
+                 box_shrink: float = 0.2, depth_range: tuple[float, float] = (0.3, 80.0), min_pixels: int = 20,
+                 tolerance_px: float = 1.0, near_support: float = 0.5, centre_sigma: float = 0.25,
+                 grow_density: float = 0.0, seed: int = 0,
+                 classes: Iterable[str] | None = None, concurrent: bool | None = None,
+                 detector_options: Mapping[str, Any] | None = None) -> None:
+        from stereo_classic.matcher import StereoMatcher
+
+        for attr in ("focal_px", "baseline_m", "image_size"):
+            if not hasattr(rig, attr):
+                raise ValueError(f"`rig` must be a calib.RectifiedRig, got {type(rig).__name__} (no {attr})")
+        self.rig = rig
+        self.matcher = StereoMatcher(_as_params(params))
+        if isinstance(detector, (str, os.PathLike)):
+            from detectors import OnnxDetector, resolve_model
+
+            detector = OnnxDetector(resolve_model(detector), **dict(detector_options or {}))
+        elif detector is not None and not callable(getattr(detector, "detect", None)):
+            raise ValueError(f"`detector` must have a detect(image) method, a model name or None, got "
+                             f"{type(detector).__name__}")
+        self.detector = detector
+        self.classes = tuple(classes) if classes else None
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ValueError(f"`seed` must be a non-negative int, got {seed!r}")
+        self.fusion_options = dict(method=method, box_shrink=box_shrink, depth_range=tuple(depth_range),
+                                   min_pixels=min_pixels, tolerance_px=tolerance_px, near_support=near_support,
+                                   centre_sigma=centre_sigma, grow_density=grow_density)
+        self.seed = int(seed)
+        # Check the fusion options now rather than on the first frame.
+        localize(np.zeros((0, 4)), np.zeros((1, 1), np.float32), _UnitRig(), rng=self.seed, **self.fusion_options)
+        if concurrent is None:
+            concurrent = (os.cpu_count() or 1) > 1
+        self.concurrent = bool(concurrent) and detector is not None
+        self._pool: ThreadPoolExecutor | None = None
+        self._first = True
+
+    @property
+    def params(self) -> Any:
+        """The matcher's SGMParams."""
+        return self.matcher.params
+
+    def close(self) -> None:
+        """Stop the worker thread (also done by ``with Localizer(...) as loc:``)."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
+
+    def __enter__(self) -> Localizer:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def _detect(self, image: np.ndarray) -> tuple[Any, float]:
+        t0 = time.perf_counter()
+        dets = self.detector.detect(image)
+        if self.classes is not None:
+            dets = dets.only(*self.classes)
+        return dets, (time.perf_counter() - t0) * 1e3
+
+    def _check_size(self, left: np.ndarray, right: np.ndarray) -> None:
+        for name, img in (("left", left), ("right", right)):
+            if not isinstance(img, np.ndarray) or img.ndim not in (2, 3):
+                raise ValueError(f"`{name}` must be an (H, W) or (H, W, 3) image array, got "
+                                 f"{type(img).__name__} {getattr(img, 'shape', '')}")
+        if left.shape != right.shape:
+            raise ValueError(f"left and right images differ in size: {left.shape[1]}x{left.shape[0]} and "
+                             f"{right.shape[1]}x{right.shape[0]}")
+        raw = getattr(self.rig, "has_maps", False)
+        size = tuple(int(s) for s in (self.rig.raw_image_size if raw else self.rig.image_size))
+        if size != (left.shape[1], left.shape[0]):
+            raise ValueError(f"the calibration is for {size[0]}x{size[1]}{' raw' if raw else ''} images but the "
+                             f"images are {left.shape[1]}x{left.shape[0]}; use rig.scaled() or the matching calibration")
+
+    def __call__(self, left: np.ndarray, right: np.ndarray) -> PipelineResult:
+        """Run the pipeline on one pair (raw when the rig has rectification maps, else rectified)."""
+        t0 = time.perf_counter()
+        self._check_size(left, right)
+        if hasattr(self.rig, "rectify_pair"):
+            # The vertical-offset check (feature matching) runs on the first frame only.
+            left, right = self.rig.rectify_pair(left, right, check_offset=self._first and getattr(self.rig, "has_maps", False))
+            self._first = False
+        t1 = time.perf_counter()
+        future = None
+        if self.concurrent:
+            if self._pool is None:
+                self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="detector")
+            future = self._pool.submit(self._detect, left)
+        try:
+            t_match = time.perf_counter()
+            dmap = self.matcher.compute(left, right)
+            t_match = (time.perf_counter() - t_match) * 1e3
+        finally:
+            if future is not None and not future.done():
+                future.exception()  # wait: never leave the detector running after a failure
+        detections, t_detect = (None, 0.0)
+        if future is not None:
+            detections, t_detect = future.result()
+        elif self.detector is not None:
+            detections, t_detect = self._detect(left)
+        t2 = time.perf_counter()
+        if detections is not None and len(detections):
+            objects = localize(detections, dmap, self.rig, rng=self.seed, **self.fusion_options)
+        else:
+            objects = LocalizedObjects.empty(self.fusion_options["method"])
+        t3 = time.perf_counter()
+        timings = {"rectify": (t1 - t0) * 1e3, "disparity": t_match, "detect": t_detect,
+                   "localize": (t3 - t2) * 1e3, "total": (t3 - t0) * 1e3}
+        return PipelineResult(left=left, right=right, disparity=dmap, detections=detections, objects=objects,
+                              timings_ms=timings)
+
+
+class _UnitRig:
+    focal_px, baseline_m, doffs, cx_left, cy, image_size = 1.0, 1.0, 0.0, 0.0, 0.0, (1, 1)
+
+
+def format_timings(timings: Iterable[Mapping[str, float]], *, stages: Iterable[str] | None = None) -> str:
+    """A short table of per-stage milliseconds over frames (median, and mean) plus frames per second.
+
+    Parameters
+    ----------
+    timings : iterable of dict
+        One ``timings_ms`` dict per frame.
+    stages : iterable of str, optional
+        Order of the rows; default: :data:`STAGES` first, then any other keys.
+
+    Returns
+    -------
+    str
+        Lines "stage  median ms  mean ms"; the last line gives frames and frames per second from the
+        median of "total".
+    """
+    rows = [dict(t) for t in timings]
+    if not rows:
+        return "no frames"
+    keys: list[str] = []
+    for name in list(stages or STAGES) + [k for r in rows for k in r]:
+        if name not in keys and any(name in r for r in rows):
+            keys.append(name)
+    width = max(len(k) for k in keys + ["stage"])
+    lines = [f"{'stage':<{width}}  {'median ms':>9}  {'mean ms':>9}"]
+    for k in keys:
+        vals = np.array([r[k] for r in rows if k in r], dtype=np.float64)
+        lines.append(f"{k:<{width}}  {np.median(vals):9.1f}  {vals.mean():9.1f}")
+    totals = [r["total"] for r in rows if "total" in r]
+    fps = 1000.0 / float(np.median(totals)) if totals and np.median(totals) > 0 else math.nan
+    lines.append(f"{len(rows)} frame{'s' if len(rows) != 1 else ''}, {fps:.1f} frames/s")
+    return "\n".join(lines)
