@@ -71,6 +71,8 @@ def names_from_metadata(metadata: Mapping[str, str]) -> tuple[str, ...] | None:
         if raw is None:
             continue
         raw = raw.strip()
+        if len(raw) > 1_000_000:
+            raise ModelError(f"ONNX metadata `{key}` is {len(raw)} characters long; not a list of class names")
         if raw[:1] in "{[(":
             try:
                 value = ast.literal_eval(raw)

@@ -323,9 +323,8 @@ def _yolox(layout: OutputLayout, outs: list[np.ndarray], input_hw, conf: float) 
     r = p[keep].astype(np.float64)
     cx = (r[:, 0] + grid[:, 0]) * stride
     cy = (r[:, 1] + grid[:, 1]) * stride
-    with np.errstate(over="ignore"):
-        w = np.exp(r[:, 2]) * stride
-        h = np.exp(r[:, 3]) * stride
+    w = np.exp(r[:, 2]) * stride
+    h = np.exp(r[:, 3]) * stride
     return _xywh_to_xyxy(cx, cy, w, h), score, cid
 
 
@@ -438,7 +437,7 @@ def _nms_included(layout: OutputLayout, outs, input_hw, conf) -> _Result:
         if len(outs) > 3:  # num_dets: only the first rows are real
             n = int(np.asarray(outs[3]).reshape(-1)[0])
             boxes, scores, cls = boxes[:n], scores[:n], cls[:n]
-    keep = np.flatnonzero((scores > conf) & (cls >= 0))
+    keep = np.flatnonzero((scores > conf) & np.isfinite(cls) & (cls >= 0) & (cls < 2**31))
     b = boxes[keep].astype(np.float32)
     b = np.stack([np.minimum(b[:, 0], b[:, 2]), np.minimum(b[:, 1], b[:, 3]),
                   np.maximum(b[:, 0], b[:, 2]), np.maximum(b[:, 1], b[:, 3])], axis=1) if b.size else b.reshape(0, 4)
@@ -452,4 +451,5 @@ _DECODERS = {"yolox": _yolox, "yolov5": _yolov5, "yolov8": _yolov8, "nanodet": _
 def decode(layout: OutputLayout, outputs: Sequence[np.ndarray], input_hw: tuple[int, int], conf_threshold: float) -> _Result:
     """Decode raw outputs (all session outputs, in session order) with ``layout``'s decoder."""
     outs = [np.asarray(outputs[i]) for i in layout.outputs]
-    return _DECODERS[layout.family](layout, outs, input_hw, float(conf_threshold))
+    with np.errstate(all="ignore"):  # hostile values become NaN/inf here and are dropped by the caller
+        return _DECODERS[layout.family](layout, outs, input_hw, float(conf_threshold))

@@ -303,6 +303,9 @@ class OnnxDetector:
             ok &= np.isin(cid, self._allowed)
         if not np.all(ok):
             xyxy, scores, cid = xyxy[ok], scores[ok], cid[ok]
+        if scores.size and float(scores.max()) > 1.0 + 1e-3:
+            raise ModelError(f"{self.family} decoder got scores up to {float(scores.max()):.4g}, expected probabilities "
+                             "in [0, 1]: the export may output logits (no sigmoid) or be of another family; pass family=...")
         scores = np.clip(scores, 0.0, 1.0)
         if scores.size > _MAX_CANDIDATES:
             top = np.argsort(-scores, kind="stable")[:_MAX_CANDIDATES]

@@ -471,3 +471,49 @@ _PROPERTY_DETECTORS = {
     True: OnnxDetector(_whole_input_model()),
     False: OnnxDetector(_whole_input_model(), preprocessing=Preprocessing(rgb=True, scale=1 / 255, centre=False)),
 }
+
+
+# ------------------------------------------------------------------------------ robustness of the decoders
+def _family_detectors():
+    raw_x, _ = _yolox_raw(TestYolox.CELLS)
+    nano, _ = _nanodet_outputs(TestNanodet.CELLS)
+    return {
+        "yolox": OnnxDetector(onnx_model({"output": raw_x})),
+        "yolov5": OnnxDetector(onnx_model({"o": np.zeros((1, 10647, 85), np.float32)})),
+        "yolov8": OnnxDetector(onnx_model({"o": np.zeros((1, 84, 300), np.float32)})),
+        "nanodet": OnnxDetector(onnx_model(nano, input_shape=(1, 3, 320, 320))),
+        "fastestdet": OnnxDetector(onnx_model({"o": np.zeros((1, 85, 22, 22), np.float32)}, input_shape=(1, 3, 352, 352))),
+        "nms": OnnxDetector(onnx_model({"o": np.zeros((1, 300, 6), np.float32)})),
+    }
+
+
+_FAMILY_DETECTORS = _family_detectors()
+
+
+@settings(max_examples=80, deadline=None)
+@given(family=st.sampled_from(sorted(_FAMILY_DETECTORS)), seed=st.integers(0, 2**32 - 1),
+       spread=st.sampled_from([1.0, 10.0, 1e4, 1e30]), special=st.sampled_from([0.0, 0.001, 0.1]),
+       probabilities=st.booleans())
+def test_property_hostile_raw_outputs(family, seed, spread, special, probabilities):
+    """Random raw tensors with NaN/inf/huge values: a valid Detections or ModelError about the scores, never a crash."""
+    det = _FAMILY_DETECTORS[family]
+    rng = np.random.default_rng(seed)
+    outputs = []
+    for out in det.session.get_outputs():
+        shape = tuple(out.shape)
+        if probabilities:
+            arr = rng.random(shape).astype(np.float32)
+            arr[..., :4] *= spread
+        else:
+            arr = rng.normal(0, spread, shape).astype(np.float32)
+        hits = rng.random(shape) < special
+        arr[hits] = rng.choice(np.float32([np.nan, np.inf, -np.inf, 3e38]), int(hits.sum()))
+        outputs.append(arr)
+    _, lb = det.preprocess(_image(97, 41))
+    try:
+        dets = det.postprocess(outputs, lb)
+    except ModelError as exc:
+        assert "expected probabilities in [0, 1]" in str(exc)
+        return
+    assert np.all(np.isfinite(dets.xyxy)) and np.all(dets.xyxy[:, 0::2] <= 97) and np.all(dets.xyxy[:, 1::2] <= 41)
+    assert len(dets) <= det.max_detections
