@@ -39,6 +39,7 @@ import json
 import math
 import os
 import re
+import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -832,11 +833,18 @@ def _scan(d: Path) -> list[SceneRef] | None:
     return None
 
 
-def iter_scenes(root: str | os.PathLike) -> Iterator[Scene]:
+def iter_scenes(root: str | os.PathLike, *, skip_errors: bool = False) -> Iterator[Scene]:
     """Every scene found at or below ``root``, in sorted path order, loaded one at a time.
 
     A folder recognised as a layout (see the module docstring) is not searched further; hidden folders
     are skipped.
+
+    Parameters
+    ----------
+    root : folder to search
+    skip_errors : bool, keyword-only
+        False (default): a scene that fails to load raises (``FileNotFoundError``/``ValueError`` naming
+        the file). True: it is skipped with a ``UserWarning`` that says which and why.
     """
     top = _folder(root, "dataset folder")
     stack = [top]
@@ -844,8 +852,15 @@ def iter_scenes(root: str | os.PathLike) -> Iterator[Scene]:
         d = stack.pop()
         refs = _scan(d)
         if refs is not None:
-            for _, load in refs:
-                yield load()
+            for name, load in refs:
+                try:
+                    scene = load()
+                except (OSError, ValueError) as exc:
+                    if not skip_errors:
+                        raise
+                    warnings.warn(f"skipped scene {name!r} in {d}: {exc}", UserWarning, stacklevel=2)
+                    continue
+                yield scene
             continue
         subdirs = sorted((p for p in d.iterdir() if p.is_dir() and not p.name.startswith(".")), reverse=True)
         stack.extend(subdirs)

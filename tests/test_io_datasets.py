@@ -355,6 +355,10 @@ def test_mismatched_files_are_clear_errors(tmp_path: Path) -> None:
     (tmp_path / "disp0GT.pfm").write_bytes(b"Pf\n3 3\n-1.0\n" + b"\0" * 10)
     with pytest.raises(FileFormatError, match="truncated"):
         load_scene(tmp_path)
+    with pytest.raises(FileFormatError, match="truncated"):
+        list(iter_scenes(tmp_path))
+    with pytest.warns(UserWarning, match="disp0GT.pfm"):
+        assert list(iter_scenes(tmp_path, skip_errors=True)) == []
 
 
 def test_load_scene_errors(tmp_path: Path) -> None:
