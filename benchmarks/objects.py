@@ -95,40 +95,52 @@ def _median_stats(times: Sequence[float]) -> dict[str, Any]:
 
 
 def detector_latency(models: Sequence[Path], image: np.ndarray, *, threads: Sequence[int] = (1, 2), repeat: int = 5) -> dict[str, Any]:
-    """Latency of ``OnnxDetector.detect`` (letterbox + inference + decoding + NMS) per model and thread count.
+    """Latency of ``OnnxDetector.detect`` per model and thread count.
 
-    Uses ``detectors/bench.py``'s helper when it exists, else times ``detect`` here: one first call
-    apart, then ``repeat`` calls interleaved between models.
+    Uses ``detectors.bench.measure_latency`` (median per stage: preprocess, inference, postprocess,
+    total; thread counts interleaved; warm-up excluded) when it exists, else times ``detect`` here.
     """
     try:
-        detectors = importlib.import_module("detectors")
-        OnnxDetector = getattr(detectors, "OnnxDetector", None) or importlib.import_module("detectors.onnx_detector").OnnxDetector
-    except Exception as exc:  # noqa: BLE001
-        return _unavailable(exc)
+        bench = importlib.import_module("detectors.bench")
+        measure = bench.measure_latency
+    except Exception:  # noqa: BLE001 - fall back to timing detect() here
+        measure = None
+    if measure is None:
+        try:
+            detectors = importlib.import_module("detectors")
+            OnnxDetector = getattr(detectors, "OnnxDetector", None) or importlib.import_module("detectors.onnx_detector").OnnxDetector
+        except Exception as exc:  # noqa: BLE001
+            return _unavailable(exc)
     if not models:
         return _unavailable("no detector model found (give --models DIR or set STEREO_CLASSIC_MODELS)")
     rows: list[dict[str, Any]] = []
-    for t in threads:
-        dets: dict[str, Any] = {}
-        for path in models:
+    for path in models:
+        if measure is not None:
+            try:
+                for r in measure(str(path), [image], threads=tuple(int(t) for t in threads), repeats=max(3, repeat), warmup=1):
+                    r = dict(r)
+                    r["model"] = path.name
+                    r["input_size"] = list(r["input_size"]) if isinstance(r.get("input_size"), (tuple, list)) else r.get("input_size")
+                    r["median_ms"] = r.get("total_ms")
+                    rows.append(r)
+            except Exception as exc:  # noqa: BLE001 - a model the detectors package cannot run is reported, not fatal
+                rows.append({"model": path.name, "threads": None, "error": f"{type(exc).__name__}: {exc}"})
+            continue
+        for t in threads:
             try:
                 det = OnnxDetector(str(path), threads=int(t))
-                t0 = time.perf_counter()
-                result = det.detect(image)
-                first = (time.perf_counter() - t0) * 1000.0
-                dets[path.name] = (det, first, len(result))
-            except Exception as exc:  # noqa: BLE001 - a model this package cannot run is reported, not fatal
-                rows.append({"model": path.name, "threads": int(t), "error": f"{type(exc).__name__}: {exc}"})
-        times: dict[str, list[float]] = {n: [] for n in dets}
-        for _ in range(repeat):
-            for name, (det, _first, _n) in dets.items():
-                t0 = time.perf_counter()
                 det.detect(image)
-                times[name].append((time.perf_counter() - t0) * 1000.0)
-        for name, (det, first, n) in dets.items():
-            rows.append({"model": name, "threads": int(t), "first_call_ms": first, "detections": n, **_median_stats(times[name])})
-    return {"available": True, "image_size": [int(image.shape[1]), int(image.shape[0])], "rows": rows,
-            "how": "OnnxDetector.detect on the image (letterbox, inference, decoding, NMS), first call excluded"}
+                times = []
+                for _ in range(max(3, repeat)):
+                    t0 = time.perf_counter()
+                    det.detect(image)
+                    times.append((time.perf_counter() - t0) * 1000.0)
+                rows.append({"model": path.name, "threads": int(t), "total_ms": statistics.median(times), **_median_stats(times)})
+            except Exception as exc:  # noqa: BLE001
+                rows.append({"model": path.name, "threads": int(t), "error": f"{type(exc).__name__}: {exc}"})
+    how = ("detectors.bench.measure_latency: OnnxDetector.detect, median per stage, thread counts interleaved, warm-up excluded"
+           if measure is not None else "OnnxDetector.detect timed here (letterbox, inference, decoding, NMS), first call excluded")
+    return {"available": True, "image_size": [int(image.shape[1]), int(image.shape[0])], "rows": rows, "how": how}
 
 
 def pipeline_fps(scene: Any, model: Path | None, *, num_disparities: int, threads: int = 2, repeat: int = 5) -> dict[str, Any]:
@@ -202,8 +214,14 @@ def distance_errors(scene: Any, model: Path | None, outputs: Mapping[str, np.nda
     labels = list(getattr(dets, "labels", []))
     boxes = np.asarray(dets.xyxy, dtype=np.float64)
     if scene.gt_depth is not None:
-        how = "LiDAR: median of the nearest dense cluster of LiDAR depths in the central box"
-        refs = [lidar_reference_distance(scene.gt_depth, b, shrink=box_shrink) for b in boxes]
+        fusion = importlib.import_module("stereo_classic.fusion")
+        if hasattr(fusion, "sparse_depth_reference"):
+            how = "LiDAR: stereo_classic.fusion.sparse_depth_reference (median of the nearest dense cluster of LiDAR depths in the shrunk box)"
+            ref_arr = fusion.sparse_depth_reference(np.nan_to_num(scene.gt_depth, nan=0.0), boxes, box_shrink=box_shrink)
+            refs = [float(v) if np.isfinite(v) else None for v in ref_arr]
+        else:
+            how = "LiDAR: median of the nearest dense cluster of LiDAR depths in the central box (benchmarks.objects)"
+            refs = [lidar_reference_distance(scene.gt_depth, b, shrink=box_shrink) for b in boxes]
     elif scene.gt_disparity is not None:
         how = "the same fusion (stereo_classic.localize) applied to the ground-truth disparity"
         try:

@@ -207,15 +207,17 @@ def _objects_sections(report: Mapping[str, Any]) -> list[Section]:
     elif not det.get("available"):
         sec.paragraphs.append(f"Not available: {det.get('reason')}")
     else:
-        sec.paragraphs.append(f"{det['how']}; image {det['image_size'][0]}x{det['image_size'][1]}.")
+        sec.paragraphs.append(f"{det['how']}; image {det['image_size'][0]}x{det['image_size'][1]}. Stages in ms (median).")
         trows = []
         for r in det["rows"]:
             if "error" in r:
-                trows.append([r["model"], str(r["threads"]), f"failed: {r['error']}", "", ""])
-            else:
-                trows.append([r["model"], str(r["threads"]), f"{r['median_ms']:.1f} [{r['min_ms']:.1f}-{r['max_ms']:.1f}]",
-                              fmt(r["first_call_ms"], 0), str(r["detections"])])
-        sec.tables.append(Table(["model", "threads", "ms median [min-max]", "first ms", "detections"], trows))
+                trows.append([r["model"], str(r.get("threads")), f"failed: {r['error']}", "", "", "", "", ""])
+                continue
+            size = r.get("input_size")
+            size_txt = "x".join(str(v) for v in size) if isinstance(size, (list, tuple)) else fmt(size)
+            trows.append([r["model"], str(r["threads"]), f"{r.get('family', '')} {size_txt}".strip(), fmt(r.get("preprocess_ms")),
+                          fmt(r.get("inference_ms")), fmt(r.get("postprocess_ms")), fmt(r.get("total_ms")), fmt(r.get("total_p90_ms"))])
+        sec.tables.append(Table(["model", "threads", "family / input", "preprocess", "inference", "postprocess", "total", "total p90"], trows))
     out.append(sec)
 
     pipe = report.get("pipeline")

@@ -217,7 +217,7 @@ def run_benchmark(config: BenchConfig, *, argv: Sequence[str] | None = None) -> 
             "data_dir": None if config.data_dir is None else str(config.data_dir),
             "repeat": config.repeat, "threads": list(threads), "block_size": config.block_size,
             "sizes": [list(s) for s in sizes], "quick": config.quick, "min_disparity": 0,
-            "disparity_range": "ground-truth maximum + 1 rounded up to 16 (else the dataset's bound, else 128)",
+            "disparity_range": "ground-truth maximum + 1 rounded up to 16 (LiDAR-only KITTI frame: 128; else the dataset's bound)",
             "accuracy_threads": acc_threads,
         },
         "notes": notes,

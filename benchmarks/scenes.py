@@ -193,10 +193,17 @@ def load_scenes(data_dir: Path | None, names: Sequence[str] | None = None, *, in
 
 
 def disparity_range(scene: BenchScene, default: int = 128) -> int:
-    """``num_disparities`` for a scene: the ground-truth maximum + 1 rounded up to 16 (else ``max_disparity``, else ``default``)."""
+    """``num_disparities`` for a scene.
+
+    The ground-truth maximum + 1 rounded up to 16; for a LiDAR frame without a disparity map (the KITTI
+    object pair) ``default`` (128, the range customary on KITTI and the issue's 1242x375x128 size);
+    else the dataset's bound rounded up to 16; else ``default``.
+    """
     if scene.gt_disparity is not None and np.isfinite(scene.gt_disparity).any():
         top = float(np.nanmax(scene.gt_disparity))
         return max(16, int(math.ceil((math.floor(top) + 1) / 16.0)) * 16)
+    if scene.gt_depth is not None:
+        return default
     if scene.max_disparity:
         return max(16, int(math.ceil(int(scene.max_disparity) / 16.0)) * 16)
     return default
