@@ -5,9 +5,9 @@
 >>> rng = np.random.default_rng(0)
 >>> right = rng.integers(0, 256, (40, 80), dtype=np.uint8)
 >>> left = np.roll(right, 6, axis=1)                  # every pixel moved 6 px: d = x_left - x_right = 6
->>> dmap = compute_disparity(left, right, num_disparities=16)
->>> float(np.nanmedian(dmap.disparity))
-6.0
+>>> dmap = compute_disparity(left, right, num_disparities=16, subpixel=False)
+>>> float(np.nanmedian(dmap.disparity)), round(dmap.valid_fraction, 2)
+(6.0, 1.0)
 """
 
 from __future__ import annotations
@@ -43,9 +43,6 @@ SUPPORTED_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.float32
 _SCALE_PERCENTILES = (0.1, 99.9)
 # At most this many samples per image for the percentiles.
 _SCALE_SAMPLES = 1 << 20
-# Keys of DisparityMap.validity whose value is an int count (failed_* may be None: not measured).
-_VALIDITY_KEYS = ("pixels", "valid", "unknown_matcher", "failed_lr", "failed_uniqueness", "speckle_removed",
-                  "filled", "border", "border_valid")
 _GiB = 1024**3
 
 
@@ -84,8 +81,9 @@ class DisparityMap:
         ("cost", "aggregate", "select", as reported by the kernels), "postprocess", "total".
     validity : dict[str, int | None]
         Pixel counts: "pixels" (H * W), "valid" (finite in ``disparity``), "unknown_matcher" (NaN
-        out of the matcher: uniqueness, left-right check, nothing to match), "failed_lr" and
-        "failed_uniqueness" (None when the kernels do not report them), "speckle_removed",
+        out of the matcher) = "no_candidate" (columns where no disparity of the range lands inside
+        the right image) + "failed_lr" + "failed_uniqueness" (each None when both filters are on:
+        the kernels do not say which one rejected a pixel), "speckle_removed",
         "filled" (by ``fill_holes``), "border" (pixels in the image bands where the full disparity
         range does not fit, matched with the range that does) and "border_valid".
     """
@@ -336,6 +334,13 @@ def _resolve_params(params: SGMParams | None, overrides: dict[str, Any]) -> SGMP
     return params.replace(**overrides) if overrides else params
 
 
+def _no_candidate_columns(shape: tuple[int, int], params: SGMParams) -> np.ndarray:
+    """(W,) bool: columns where no disparity of the range maps inside the right image."""
+    width = shape[1]
+    x = np.arange(width)
+    return (x - params.min_disparity < 0) | (x - params.max_disparity > width - 1)
+
+
 def _border_mask(shape: tuple[int, int], params: SGMParams) -> np.ndarray:
     """(W,) bool: columns where the full disparity range does not fit in the right image."""
     width = shape[1]
@@ -379,6 +384,14 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     t3 = time.perf_counter()
 
     counts = {k: v for k, v in dict(core_timings).items() if k.startswith("n_")}
+    # The kernels mark NaN: pixels with no candidate at all, and those failing uniqueness or the LR check.
+    # With at most one of the two filters on, the split is exact.
+    no_candidate = int(_no_candidate_columns(disparity.shape, params).sum()) * disparity.shape[0]
+    rejected = unknown_matcher - no_candidate
+    uniqueness_on, lr_on = params.uniqueness > 0, params.lr_check is not None
+    failed_lr = counts.get("n_failed_lr", 0 if not lr_on else (rejected if not uniqueness_on else None))
+    failed_uniqueness = counts.get("n_failed_uniqueness",
+                                   0 if not uniqueness_on else (rejected if not lr_on else None))
     timings = {"prepare": (t1 - t0) * 1e3}
     timings.update({k: float(v) for k, v in dict(core_timings).items() if not k.startswith("n_")})
     timings["postprocess"] = (t3 - t2) * 1e3
@@ -387,8 +400,9 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         "pixels": int(disparity.size),
         "valid": valid_after_speckle + filled,
         "unknown_matcher": unknown_matcher,
-        "failed_lr": None if "n_failed_lr" not in counts else int(counts["n_failed_lr"]),
-        "failed_uniqueness": None if "n_failed_uniqueness" not in counts else int(counts["n_failed_uniqueness"]),
+        "no_candidate": no_candidate,
+        "failed_lr": None if failed_lr is None else int(failed_lr),
+        "failed_uniqueness": None if failed_uniqueness is None else int(failed_uniqueness),
         "speckle_removed": valid_before - valid_after_speckle,
         "filled": filled,
         "border": int(border.sum()) * disparity.shape[0],

@@ -206,6 +206,27 @@ class TestComputeDisparity:
         m.compute(left[:40], right[:40])
         assert len(calls) == 1
 
+    @pytest.mark.parametrize("lr_check, uniqueness", [(None, 0), (1.0, 0), (None, 10), (1.0, 10)])
+    def test_validity_split(self, lr_check, uniqueness):
+        left, right = _shift_pair(shift=9, seed=11)
+        left[:, 50:60] = 128  # a flat patch: ambiguous, some pixels fail the filters
+        dmap = compute_disparity(left, right, min_disparity=3, num_disparities=16, lr_check=lr_check,
+                                 uniqueness=uniqueness, speckle_size=0)
+        v = dmap.validity
+        assert v["no_candidate"] == 3 * left.shape[0]  # columns 0..2 cannot reach disparity >= 3
+        assert np.isnan(dmap.disparity[:, :3]).all()
+        assert v["unknown_matcher"] == np.isnan(dmap.disparity).sum()
+        if lr_check is None:
+            assert v["failed_lr"] == 0
+        if uniqueness == 0:
+            assert v["failed_uniqueness"] == 0
+        if lr_check is not None and uniqueness:
+            assert v["failed_lr"] is None and v["failed_uniqueness"] is None
+        else:
+            assert v["no_candidate"] + v["failed_lr"] + v["failed_uniqueness"] == v["unknown_matcher"]
+            assert (v["failed_lr"] > 0) == (lr_check is not None)
+            assert (v["failed_uniqueness"] > 0) == (uniqueness > 0)
+
     def test_fill_holes_option_makes_map_denser(self):
         left, right = _shift_pair(shift=9)
         sparse = compute_disparity(left, right, num_disparities=16, uniqueness=5)
