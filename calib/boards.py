@@ -144,7 +144,10 @@ def detect_board(image: np.ndarray, board: Board, *, name: str = "image") -> tup
     if isinstance(board, CheckerBoard):
         pattern = (board.cols, board.rows)
         flags = cv2.CALIB_CB_ADAPTIVE_THRESH | cv2.CALIB_CB_NORMALIZE_IMAGE
-        found, corners = cv2.findChessboardCorners(gray, pattern, flags=flags)
+        try:
+            found, corners = cv2.findChessboardCorners(gray, pattern, flags=flags)
+        except cv2.error:  # e.g. images too small for its adaptive threshold: no board there
+            return None
         if not found or corners is None or len(corners) != board.cols * board.rows:
             return None
         corners = corners.reshape(-1, 2).astype(np.float32)
@@ -161,7 +164,10 @@ def detect_board(image: np.ndarray, board: Board, *, name: str = "image") -> tup
     if isinstance(board, CharucoBoard):
         cv_board = board.cv_board()
         detector = cv2.aruco.CharucoDetector(cv_board)
-        corners, ids, _marker_corners, _marker_ids = detector.detectBoard(gray)
+        try:
+            corners, ids, _marker_corners, _marker_ids = detector.detectBoard(gray)
+        except cv2.error:
+            return None
         if corners is None or ids is None or len(ids) < 6:
             return None
         ids = ids.reshape(-1).astype(np.int64)

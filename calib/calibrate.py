@@ -173,9 +173,9 @@ def calibrate_stereo(left_images: Sequence[Any], right_images: Sequence[Any], *,
         det_l = detect_board(img_l, board, name=f"left_images[{i}]")
         det_r = detect_board(img_r, board, name=f"right_images[{i}]")
         if det_l is None or det_r is None:
-            where = "both images" if det_l is None and det_r is None else ("left image" if det_l is None else "right image")
-            rejected.append((names[i], f"board not found in the {where}"))
-            log.info("%s: board not found in the %s", names[i], where)
+            where = "both images" if det_l is None and det_r is None else ("the left image" if det_l is None else "the right image")
+            rejected.append((names[i], f"board not found in {where}"))
+            log.info("%s: board not found in %s", names[i], where)
             continue
         ids_common, il, ir = np.intersect1d(det_l[0], det_r[0], return_indices=True)
         if len(ids_common) < 6:
