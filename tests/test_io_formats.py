@@ -489,3 +489,20 @@ def test_readers_on_random_bytes_raise_only_documented_errors(tmp_path: Path, ju
             reader(path)
         except FileFormatError as exc:
             assert name in str(exc)
+
+
+@pytest.mark.parametrize(
+    "reader",
+    [read_image, read_pfm, read_ply, read_kitti_disparity, lambda p: read_scaled_disparity(p, 4)],
+    ids=["image", "pfm", "ply", "kitti", "scaled"],
+)
+def test_every_reader_refuses_missing_empty_and_directories(tmp_path: Path, reader) -> None:  # noqa: ANN001
+    with pytest.raises(FileNotFoundError, match="missing.bin"):
+        reader(tmp_path / "missing.bin")
+    folder = tmp_path / "folder.png"
+    folder.mkdir()
+    with pytest.raises(FileNotFoundError, match="directory"):
+        reader(folder)
+    (tmp_path / "empty.bin").write_bytes(b"")
+    with pytest.raises(FileFormatError, match="empty"):
+        reader(tmp_path / "empty.bin")
