@@ -106,7 +106,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     fus.add_argument("--tolerance-px", type=float, default=None, metavar="PX", help="RANSAC inlier band in disparity px (default 1)")
     fus.add_argument("--near-support", type=float, default=None, metavar="F", help="a nearer set wins at this fraction of the largest one's support (default 0.5)")
     fus.add_argument("--centre-sigma", type=float, default=None, metavar="F", help="centre weighting of votes, fraction of the box (default 0.25, 0 = off)")
-    fus.add_argument("--grow-density", type=float, default=None, metavar="F", help="grow the set over continuous depths (default 0 = off)")
+    fus.add_argument("--grow-density", type=float, default=None, metavar="F", help="grow the set over continuous depths (default 0.1, 0 = off)")
     fus.add_argument("--seed", type=int, default=None, help="RANSAC seed (default 0)")
 
     mat = p.add_argument_group("matcher")

@@ -45,7 +45,7 @@ RUN_DEFAULTS: dict[str, tuple[Any, str]] = {
     "tolerance_px": (1.0, "float"),
     "near_support": (0.5, "float"),
     "centre_sigma": (0.25, "float"),
-    "grow_density": (0.0, "float"),
+    "grow_density": (0.1, "float"),
     "seed": (0, "int"),
     "threads": (0, "int"),
     "scale": (1.0, "float"),

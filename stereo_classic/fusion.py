@@ -16,10 +16,12 @@ Design decisions (see ``localize`` for the parameters):
   (``centre_sigma``): a detector centres its box on the object, while the background and occluders
   enter from the box edges. So the background loses even when it covers most of the box, and a near
   occluder at the box edge (another car) does not win either.
-* **Continuity (optional).** With ``grow_density > 0`` the RANSAC band grows over neighbouring
-  disparities while they stay dense, so a slanted surface (a car seen at an angle) becomes one set and a
-  gap (the jump to the background) ends it. Off by default: on the KITTI pair it also merged a car with
-  the parked cars behind it (measured: 14.27 m -> 14.53 m against a LiDAR reference of 13.86 m).
+* **Continuity.** The RANSAC band grows over neighbouring disparities while they stay dense
+  (``grow_density``, default 0.1 of the band's density per 1 px step), so a slanted surface (a car seen
+  at an angle) becomes one set and a gap (the jump to the background) ends it. Measured on the KITTI
+  pair (128 disparities, LiDAR reference): the near car seen at an angle goes from -11.9 % to -4.0 %,
+  the three others from +1.2/+3.4/+1.7 % to +3.0/+4.1/+4.0 %; ``grow_density=0`` is the paper's plain
+  consistent set.
 * **The object is in front.** The heaviest set wins unless a *nearer* set has at least ``near_support``
   times its weighted support; then the nearest such set wins. Equal support is a tie, and ties go to the
   nearer set. Inside one RANSAC round, hypotheses with the same support are also broken towards the
@@ -432,7 +434,7 @@ def localize(
     tolerance_px: float = 1.0,
     near_support: float = 0.5,
     centre_sigma: float = 0.25,
-    grow_density: float = 0.0,
+    grow_density: float = 0.1,
     max_clusters: int = 3,
     max_iterations: int = 256,
     max_samples: int = 20000,
@@ -471,8 +473,8 @@ def localize(
     grow_density : float in [0, 1]
         After RANSAC, the set grows over neighbouring disparities, in steps of ``tolerance_px``, while each
         step holds at least this fraction of the band's density (the object's depths are continuous, a
-        slanted surface such as a car's side is one object); a sparse step (a gap) stops it. 0 (default):
-        no growth, the paper's plain consistent set.
+        slanted surface such as a car's side is one object); a sparse step (a gap) stops it. 0: no growth,
+        the paper's plain consistent set.
     max_clusters : int >= 1
         How many consistent sets sequential RANSAC extracts per box.
     max_iterations : int >= 1

@@ -98,7 +98,7 @@ class Localizer:
     def __init__(self, rig: Any, detector: Any = None, params: Any = None, *, method: str = "ransac",
                  box_shrink: float = 0.2, depth_range: tuple[float, float] = (0.3, 80.0), min_pixels: int = 20,
                  tolerance_px: float = 1.0, near_support: float = 0.5, centre_sigma: float = 0.25,
-                 grow_density: float = 0.0, seed: int = 0,
+                 grow_density: float = 0.1, seed: int = 0,
                  classes: Iterable[str] | None = None, concurrent: bool | None = None,
                  detector_options: Mapping[str, Any] | None = None) -> None:
         from stereo_classic.matcher import StereoMatcher

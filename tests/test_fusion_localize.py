@@ -378,7 +378,7 @@ def test_grow_density_merges_a_slanted_surface():
     z = np.linspace(3.0, 5.0, 200)[None, :].repeat(60, axis=0)
     d = (100.0 / z).astype(np.float32)
     box = np.array([[0, 0, 200, 60]])
-    plain = localize(box, d, rig, box_shrink=0.0, centre_sigma=0)
+    plain = localize(box, d, rig, box_shrink=0.0, centre_sigma=0, grow_density=0)
     grown = localize(box, d, rig, box_shrink=0.0, centre_sigma=0, grow_density=0.2)
     assert grown.inliers[0] >= 0.98 * d.size and plain.inliers[0] < d.size / 5
     assert grown.distance_m[0] == pytest.approx(z.mean(), rel=0.01)
