@@ -866,6 +866,22 @@ def iter_scenes(root: str | os.PathLike, *, skip_errors: bool = False) -> Iterat
         stack.extend(subdirs)
 
 
+def _first_scene_folder_below(d: Path, depth: int = 3) -> Path | None:
+    if depth == 0:
+        return None
+    try:
+        subdirs = sorted(p for p in d.iterdir() if p.is_dir() and not p.name.startswith("."))
+    except OSError:
+        return None
+    for sub in subdirs:
+        if _scan(sub):
+            return sub
+        found = _first_scene_folder_below(sub, depth - 1)
+        if found is not None:
+            return found
+    return None
+
+
 def load_scene(path: str | os.PathLike) -> Scene:
     """Load the scene at ``path``, whatever its layout.
 
@@ -891,6 +907,12 @@ def load_scene(path: str | os.PathLike) -> Scene:
         raise FileNotFoundError(f"scene not found: {p}")
     refs = _scan(p)
     if refs is None:
+        below = _first_scene_folder_below(p)
+        if below is not None:
+            raise ValueError(
+                f"{p} is not a scene folder but holds scenes below it (e.g. {below}): use "
+                f"iter_scenes({str(p)!r}) or load_scene on one of them"
+            )
         raise FileFormatError(
             f"no supported stereo layout in {p}: expected Middlebury (im0/im1, im2/im6, im3/im4, view1/view5), "
             "<name>_left/_right, KITTI (image_2/image_3) or a KITTI frame with calib.txt + lidar.bin"

@@ -204,6 +204,8 @@ def test_every_shared_folder_loads(shared_data: Path) -> None:
     covered = {s.path.resolve() for s in scenes}
     folders = {p.parent.resolve() for p in shared_data.rglob("*.png")}
     assert folders <= covered
+    with pytest.raises(ValueError, match="iter_scenes"):
+        load_scene(shared_data / "middlebury2014")
 
 
 # ------------------------------------------------------------------------------- demo
