@@ -86,7 +86,13 @@ def _detect(args) -> int:
         log.error("%s", exc)
         return 1 if isinstance(exc, FileNotFoundError) or type(exc).__name__ == "ModelError" else 2
     status = 0
-    for path in args.images:
+    times: dict[str, list[float]] = {}
+    images = args.images
+    if sys.stderr.isatty() and len(images) > 1 and not args.quiet:
+        from tqdm import tqdm
+
+        images = tqdm(images, unit="image", file=sys.stderr)
+    for path in images:
         image = cv2.imread(path, cv2.IMREAD_COLOR)
         if image is None:
             log.error("cannot read image %s (missing or not an image)", path)
@@ -95,7 +101,12 @@ def _detect(args) -> int:
         dets = detector.detect(image)
         print(json.dumps({"image": path, "detections": dets.to_json(),
                           "timings_ms": {k: round(v, 2) for k, v in detector.last_timings_ms.items()}}))
-        log.info("%s: %d objects (%.1f ms)", path, len(dets), detector.last_timings_ms["total"])
+        log.debug("%s: %d objects (%.1f ms)", path, len(dets), detector.last_timings_ms["total"])
+        for k, v in detector.last_timings_ms.items():
+            times.setdefault(k, []).append(v)
+    if times:
+        log.info("%d image(s), median ms: %s", len(times["total"]),
+                 ", ".join(f"{k} {sorted(v)[len(v) // 2]:.1f}" for k, v in times.items()))
     return status
 
 

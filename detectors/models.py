@@ -12,7 +12,7 @@ from pathlib import Path
 
 from detectors.errors import ModelError, ModelNotFoundError
 
-__all__ = ["KnownModel", "KNOWN_MODELS", "DEFAULT_MODEL", "MODELS_ENV", "cache_dir", "resolve_model", "download_model"]
+__all__ = ["KnownModel", "KNOWN_MODELS", "DEFAULT_MODEL", "MODELS_ENV", "cache_dir", "resolve_model", "download_model", "verify_sha256"]
 
 MODELS_ENV = "STEREO_CLASSIC_MODELS"
 DEFAULT_MODEL = "yolox_nano"
