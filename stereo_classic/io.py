@@ -99,13 +99,6 @@ def _existing_file(path: Any, what: str) -> Path:
     return p
 
 
-def _read_bytes(path: Path, what: str) -> bytes:
-    try:
-        return path.read_bytes()
-    except IsADirectoryError as exc:  # pragma: no cover - caught by _existing_file
-        raise FileNotFoundError(f"{what}: expected a file, got a directory: {path}") from exc
-
-
 @contextlib.contextmanager
 def atomic_write(path: PathLike, mode: str = "wb") -> Iterator[IO[Any]]:
     """Open ``path`` for writing so that it appears complete or not at all.
