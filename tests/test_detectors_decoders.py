@@ -517,3 +517,39 @@ def test_property_hostile_raw_outputs(family, seed, spread, special, probabiliti
         return
     assert np.all(np.isfinite(dets.xyxy)) and np.all(dets.xyxy[:, 0::2] <= 97) and np.all(dets.xyxy[:, 1::2] <= 41)
     assert len(dets) <= det.max_detections
+
+
+def test_nanodet_plus_single_output():
+    s, gx, gy = 16, 4, 6  # stride-16 level starts after the 40 x 40 stride-8 cells
+    raw = np.full((1, 2125, 80 + 32), -1e4, np.float32)
+    raw[:, :, :80] = 0.0
+    idx = 1600 + gy * 20 + gx
+    raw[0, idx, 80 + np.array([2, 8 + 3, 16 + 1, 24 + 0])] = 0.0  # one-hot distances 2, 3, 1, 0 (x stride)
+    raw[0, idx, 14] = 0.8                                        # bird
+    det = OnnxDetector(onnx_model({"output": raw}, input_shape=(1, 3, 320, 320)))
+    assert det.family == "nanodet_plus" and det.layout.reg_max == 7
+    cx, cy = gx * s, gy * s  # NanoDet-Plus priors sit on the cell corner
+    expected_in = np.array([[cx - 2 * s, cy - 3 * s, cx + 1 * s, cy + 0 * s]])
+    dets = det.detect(_image(640, 480))
+    assert dets.labels == ["bird"]
+    np.testing.assert_array_equal(dets.xyxy, _centre_to_orig(expected_in, 40, 2.0))
+
+
+@pytest.mark.parametrize("kind", ["yolov7_k7", "dets_labels"])
+def test_other_nms_included_layouts(kind):
+    if kind == "yolov7_k7":  # batch_id, x1, y1, x2, y2, class, score
+        raw = np.zeros((3, 7), np.float32)
+        raw[:, 1:5] = BOXES_IN
+        raw[:, 5] = CLASSES
+        raw[:, 6] = SCORES
+        outs = {"output": raw}
+    else:  # mmdetection: dets (1, K, 5) x1 y1 x2 y2 score + labels (1, K)
+        dets_arr = np.zeros((1, 3, 5), np.float32)
+        dets_arr[0, :, :4] = BOXES_IN
+        dets_arr[0, :, 4] = SCORES
+        outs = {"dets": dets_arr, "labels": np.array([CLASSES], np.int64)}
+    det = OnnxDetector(onnx_model(outs))
+    assert det.family == "nms"
+    dets = _sorted(det.detect(_image(832, 624)))
+    assert dets.labels == [COCO_CLASSES[c] for c in CLASSES]
+    np.testing.assert_array_equal(dets.xyxy, _centre_to_orig(BOXES_IN, 52, 2.0))
