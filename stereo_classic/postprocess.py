@@ -56,10 +56,13 @@ def filter_speckles(disparity: np.ndarray, *, max_size: int, max_diff: float) ->
     valid = np.isfinite(disp)
     if max_size == 0 or not valid.any():
         return out
-    magnitude = float(np.abs(disp[valid]).max())
+    # fmin / fmax skip NaN without the copies nanmin / nanmax make
+    magnitude = max(abs(float(np.fmin.reduce(disp, axis=None))), abs(float(np.fmax.reduce(disp, axis=None))))
     scale = 16.0 if magnitude * 16.0 <= _I16_LIMIT else _I16_LIMIT / magnitude
-    scaled = np.full(disp.shape, _UNKNOWN_I16, np.int16)
-    scaled[valid] = np.rint(disp[valid] * scale).astype(np.int16)
+    work = disp * np.float32(scale)
+    np.rint(work, out=work)
+    work[~valid] = _UNKNOWN_I16
+    scaled = work.astype(np.int16)
     max_diff_scaled = int(round(max_diff * scale))
     cv2.filterSpeckles(scaled, _UNKNOWN_I16, int(max_size), max_diff_scaled)
     out[scaled == _UNKNOWN_I16] = np.nan
@@ -104,6 +107,10 @@ def fill_holes(disparity: np.ndarray) -> np.ndarray:
     median = cv2.medianBlur(filled, 3)
     holes = ~valid & ~still_unknown
     out = disp.copy()
+    out[holes] = filled[holes]
+    if still_unknown.any():  # the median must not see the placeholder of rows without any known pixel
+        near_empty = cv2.dilate(still_unknown.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+        holes &= ~near_empty
     out[holes] = median[holes]
     out[still_unknown] = np.nan
     return out

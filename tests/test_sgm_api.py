@@ -484,6 +484,10 @@ class TestPostprocess:
         wide[:, 12:] = 4.0
         wide[:, 8:12] = np.nan  # hole between a near (20) and a far (4) surface: background is 4
         np.testing.assert_array_equal(fill_holes(wide)[2:-2, 8:12], 4.0)
+        # a row between two empty rows: the median never sees the empty rows' placeholder
+        lone = np.full((5, 6), np.nan, np.float32)
+        lone[2, 0] = 7.0
+        np.testing.assert_array_equal(fill_holes(lone)[2], 7.0)
 
     @pytest.mark.parametrize("func", [lambda d: filter_speckles(d, max_size=1, max_diff=1), fill_holes])
     def test_rejects_wrong_dtype(self, func):
@@ -547,3 +551,31 @@ def test_property_well_formed_or_named_error(case):
     p = dmap.params
     assert ((finite >= p.min_disparity - 1) & (finite <= p.max_disparity + 1)).all()
     assert dmap.validity["valid"] == finite.size
+
+
+@st.composite
+def _disparity_maps(draw):
+    h, w = draw(st.integers(1, 30)), draw(st.integers(1, 30))
+    rng = np.random.default_rng(draw(st.integers(0, 2**16)))
+    scale = draw(st.sampled_from([1.0, 64.0, 5000.0]))
+    d = (rng.normal(0, 1, (h, w)).cumsum(axis=1) * scale / 10).astype(np.float32)
+    d[rng.random((h, w)) < draw(st.sampled_from([0.0, 0.2, 0.9, 1.0]))] = np.nan
+    return d
+
+
+@settings(max_examples=80, deadline=None)
+@given(d=_disparity_maps(), max_size=st.integers(0, 50), max_diff=st.sampled_from([0.0, 0.5, 2.0, 100.0]))
+def test_property_postprocess(d, max_size, max_diff):
+    known = np.isfinite(d)
+    out = filter_speckles(d, max_size=max_size, max_diff=max_diff)
+    kept = np.isfinite(out)
+    assert out.dtype == np.float32 and not (kept & ~known).any()  # only removes
+    np.testing.assert_array_equal(out[kept], d[kept])  # never changes a value
+    if max_size == 0:
+        assert (kept == known).all()
+    filled = fill_holes(d)
+    np.testing.assert_array_equal(filled[known], d[known])
+    rows_with_data = known.any(axis=1)
+    assert np.isfinite(filled[rows_with_data]).all() and np.isnan(filled[~rows_with_data]).all()
+    lo, hi = (np.nanmin(d), np.nanmax(d)) if known.any() else (0, 0)
+    assert ((filled[np.isfinite(filled)] >= lo) & (filled[np.isfinite(filled)] <= hi)).all()
