@@ -144,8 +144,14 @@ def recognise_layout(
             if fam == "nms":
                 raise fail("family='nms' needs boxes (1, K, 4), scores (1, K) and classes (1, K) outputs")
         if fam is None:
-            raise fail(f"{len(shapes)} outputs match neither NanoDet nor an export with NMS")
-        # a single-output family with extra outputs: use the first output, say so if it does not fit
+            # e.g. older YOLOv5 exports: the combined (1, N, 85) output first, then one raw output per level
+            try:
+                return recognise_layout(names[:1], shapes[:1], dtypes[:1], input_hw, metadata=metadata, hint=hint,
+                                        num_names=num_names)
+            except ModelError:
+                raise fail(f"{len(shapes)} outputs match neither NanoDet nor an export with NMS, "
+                           "and the first output alone is no known layout") from None
+        # a single-output family named with extra outputs: decode the first output
     shape = shapes[0]
     if len(shape) == 4 and shape[0] == 1 and fam in (None, "fastestdet"):
         c, gh, gw = shape[1:]

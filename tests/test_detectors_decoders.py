@@ -553,3 +553,16 @@ def test_other_nms_included_layouts(kind):
     dets = _sorted(det.detect(_image(832, 624)))
     assert dets.labels == [COCO_CLASSES[c] for c in CLASSES]
     np.testing.assert_array_equal(dets.xyxy, _centre_to_orig(BOXES_IN, 52, 2.0))
+
+
+def test_old_yolov5_export_with_extra_level_outputs():
+    n = 3 * grid_count(416, 416, (8, 16, 32))
+    raw = np.zeros((1, n, 85), np.float32)
+    raw[0, 7, :5] = (208, 208, 100, 50, 0.9)
+    raw[0, 7, 5 + 2] = 1.0
+    outs = {"output": raw, "345": np.zeros((1, 3, 52, 52, 85), np.float32), "403": np.zeros((1, 3, 26, 26, 85), np.float32)}
+    det = OnnxDetector(onnx_model(outs))
+    assert det.family == "yolov5" and det.layout.outputs == (0,)
+    dets = det.detect(_image(416, 416))
+    assert dets.labels == ["car"]
+    np.testing.assert_array_equal(dets.xyxy, np.float32([[158, 183, 258, 233]]))
