@@ -188,7 +188,8 @@ def calibrate_stereo(left_images: Sequence[Any], right_images: Sequence[Any], *,
     if len(used) < min_views:
         detail = "; ".join(f"{n}: {r}" for n, r in rejected) or "none rejected"
         raise CalibrationError(f"only {len(used)} of {len(left_images)} views are usable, need at least {min_views} ({detail})")
-    assert size is not None
+    if size is None:  # unreachable: at least min_views >= 3 views were read
+        raise CalibrationError("no images were read")
 
     flags = 0
     if fix_k3:

@@ -12,6 +12,7 @@ __all__ = ["vertical_offset", "match_features"]
 log = logging.getLogger(__name__)
 
 _MIN_MATCHES = 8
+_MAX_REFINED = 400
 
 
 def _to_gray_u8(name: str, image: np.ndarray) -> np.ndarray:
@@ -70,11 +71,44 @@ def match_features(left: np.ndarray, right: np.ndarray, *, max_features: int = 3
     return pl, pr
 
 
-def vertical_offset(left: np.ndarray, right: np.ndarray, *, max_features: int = 3000) -> float:
-    """Median ``|y_left - y_right|`` in pixels over matched ORB features of a rectified pair.
+def _refine_dy(gl: np.ndarray, gr: np.ndarray, pl: np.ndarray, pr: np.ndarray, *, half: int = 7,
+               search: int = 3, min_ncc: float = 0.8) -> np.ndarray:
+    """Sub-pixel ``y_left - y_right`` of each match by normalised cross-correlation of a patch around the
+    left point over a small window around the right point (parabola through the peak). NaN where unsure."""
+    h, w = gl.shape
+    out = np.full(len(pl), np.nan)
+    for i, ((xl, yl), (xr, yr)) in enumerate(zip(np.rint(pl).astype(int), np.rint(pr).astype(int))):
+        if not (half <= xl < w - half and half <= yl < h - half):
+            continue
+        r = half + search
+        if not (r <= xr < w - r and r <= yr < h - r):
+            continue
+        patch = gl[yl - half : yl + half + 1, xl - half : xl + half + 1]
+        if float(patch.std()) < 2.0:
+            continue
+        window = gr[yr - r : yr + r + 1, xr - r : xr + r + 1]
+        score = cv2.matchTemplate(window, patch, cv2.TM_CCOEFF_NORMED)
+        py, px = np.unravel_index(int(np.argmax(score)), score.shape)
+        if score[py, px] < min_ncc or not (0 < py < score.shape[0] - 1 and 0 < px < score.shape[1] - 1):
+            continue
+        a, b, c = score[py - 1, px], score[py, px], score[py + 1, px]
+        denom = a - 2.0 * b + c
+        sub = 0.5 * (a - c) / denom if denom < 0 else 0.0
+        y_right = yr - search + py + sub
+        out[i] = yl - y_right
+    return out
 
-    A well rectified pair gives well under 1 px (Middlebury Motorcycle: about 0.3 px). Matches whose vertical
-    offset exceeds 5 % of the image height are treated as mismatches and left out.
+
+def vertical_offset(left: np.ndarray, right: np.ndarray, *, max_features: int = 2000) -> float:
+    """Median ``|y_left - y_right|`` in pixels over matched features of a rectified pair.
+
+    ORB features are matched (ratio test, mutual best match), then each match is refined to sub-pixel by
+    normalised cross-correlation of a 15x15 patch (ORB positions alone are whole pixels); at most 400 matches
+    are refined. Matches that do not
+    correlate well, or whose vertical offset exceeds 5 % of the image height, are left out.
+
+    A well rectified pair gives well under 1 px (Middlebury Motorcycle: about 0.3 px, its ``calib.txt`` says
+    ``dyavg=0.23``). Costs roughly 0.1 to 0.3 s for a 0.5-megapixel pair.
 
     Parameters
     ----------
@@ -86,13 +120,18 @@ def vertical_offset(left: np.ndarray, right: np.ndarray, *, max_features: int = 
         Median absolute vertical offset in pixels, or NaN when fewer than 8 features match (a soft failure:
         too little texture to tell).
     """
-    pl, pr = match_features(left, right, max_features=max_features)
+    gl, gr = _to_gray_u8("left", left), _to_gray_u8("right", right)
+    pl, pr = match_features(gl, gr, max_features=max_features)
     if len(pl) < _MIN_MATCHES:
         log.debug("vertical_offset: only %d matches, cannot measure", len(pl))
         return float("nan")
-    dy = np.abs(pl[:, 1] - pr[:, 1])
-    height = np.shape(left)[0]
-    dy = dy[dy <= max(3.0, 0.05 * height)]
+    limit = max(3.0, 0.05 * gl.shape[0])
+    keep = np.flatnonzero(np.abs(pl[:, 1] - pr[:, 1]) <= limit)
+    if len(keep) > _MAX_REFINED:  # an even, deterministic subset is plenty for a median
+        keep = keep[np.linspace(0, len(keep) - 1, _MAX_REFINED).astype(int)]
+    dy = _refine_dy(gl, gr, pl[keep], pr[keep])
+    dy = np.abs(dy[np.isfinite(dy)])
     if len(dy) < _MIN_MATCHES:
+        log.debug("vertical_offset: only %d refined matches, cannot measure", len(dy))
         return float("nan")
     return float(np.median(dy))

@@ -4,7 +4,6 @@ hostile files (hypothesis)."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import cv2
 import numpy as np
@@ -142,6 +141,17 @@ def test_both_yaml_headers(tmp_path, header):
     path = tmp_path / "stereo.yml"
     path.write_text(_opencv_text(header))
     assert StereoRig.from_opencv_yaml(path) == RIG
+
+
+def test_header_variants_tried_when_cv2_refuses_one():
+    from calib.formats import _storage_variants
+
+    body = "K1: 1\n"
+    for header in ("%YAML:1.0\n", "%YAML 1.2\n", ""):
+        variants = _storage_variants(header + body)
+        assert variants[0] == header + body  # as written first
+        assert {"%YAML:1.0\n" + body, "%YAML 1.2\n" + body, body} <= set(variants)
+    assert _storage_variants("<?xml version=\"1.0\"?>\n<opencv_storage/>") == ["<?xml version=\"1.0\"?>\n<opencv_storage/>"]
 
 
 def test_opencv_sample_names_and_image_size_argument(tmp_path):
