@@ -89,7 +89,7 @@ def check_image(image: object, parameter: str = "image") -> np.ndarray:
         raise ValueError(f"`{parameter}` is empty, shape {image.shape}")
     if image.shape[2] == 4:
         return cv2.cvtColor(np.ascontiguousarray(image), cv2.COLOR_BGRA2BGR)
-    return image
+    return np.ascontiguousarray(image)  # OpenCV needs positive strides (no copy when already contiguous)
 
 
 def letterbox(image: np.ndarray, size: tuple[int, int], prep: Preprocessing) -> tuple[np.ndarray, Letterbox]:

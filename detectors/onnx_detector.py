@@ -219,6 +219,7 @@ class OnnxDetector:
         self._mean = None if preprocessing.mean is None else np.asarray(preprocessing.mean, np.float32).reshape(3, 1, 1)
         self._inv_std = None if preprocessing.std is None else (1.0 / np.asarray(preprocessing.std, np.float32)).reshape(3, 1, 1)
         self.last_timings_ms: dict[str, float] = {}
+        log.debug("loaded %r", self)
 
     # ------------------------------------------------------------------ helpers
     @staticmethod

@@ -407,6 +407,13 @@ class TestOptionsAndErrors:
             got = det.detect(img)
             np.testing.assert_array_equal(got.xyxy, ref.xyxy)
 
+    def test_views_with_odd_strides(self):
+        det = OnnxDetector(_yolox_model())
+        img = _image(832, 624)
+        flipped = det.detect(img[:, ::-1])
+        np.testing.assert_array_equal(flipped.xyxy, det.detect(np.ascontiguousarray(img[:, ::-1])).xyxy)
+        assert len(det.detect(img[::2, ::2, :])) == 3
+
     def test_timings_recorded(self):
         det = OnnxDetector(_yolox_model())
         det.detect(_image(100, 50))
