@@ -204,6 +204,20 @@ def test_cli_calibrate_globs(view_folder, tmp_path):
     assert code == 0 and out.is_file()
 
 
+def test_cli_calibrate_charuco(charuco_views, tmp_path):
+    from stereo_classic.cli import main
+
+    for i, (left, right) in enumerate(zip(charuco_views.left, charuco_views.right)):
+        cv2.imwrite(str(tmp_path / f"left_{i}.png"), left)
+        cv2.imwrite(str(tmp_path / f"right_{i}.png"), right)
+    out = tmp_path / "out" / "rig.yaml"
+    out.parent.mkdir()
+    code = main(["calibrate", "--folder", str(tmp_path), "--board", "charuco", "--board-size", "8x6", "--square", "0.035",
+                 "--marker", "0.026", "--dictionary", "DICT_5X5_100", "-o", str(out)])
+    assert code == 0
+    assert abs(StereoRig.from_opencv_yaml(out).baseline_m / TRUE_RIG.baseline_m - 1.0) < 0.005
+
+
 @pytest.mark.parametrize(
     "argv, message",
     [
