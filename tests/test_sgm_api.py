@@ -579,3 +579,19 @@ def test_property_postprocess(d, max_size, max_diff):
     assert np.isfinite(filled[rows_with_data]).all() and np.isnan(filled[~rows_with_data]).all()
     lo, hi = (np.nanmin(d), np.nanmax(d)) if known.any() else (0, 0)
     assert ((filled[np.isfinite(filled)] >= lo) & (filled[np.isfinite(filled)] <= hi)).all()
+
+
+_ANY = st.one_of(st.none(), st.booleans(), st.integers(-10**7, 10**7), st.floats(allow_nan=True),
+                 st.text(max_size=3), st.tuples(st.integers(-3, 11), st.integers(-3, 11)))
+
+
+@settings(max_examples=150, deadline=None)
+@given(field=st.sampled_from([f.name for f in dataclasses.fields(SGMParams)]), value=_ANY)
+def test_property_params_value_or_named_error(field, value):
+    try:
+        p = SGMParams(**{field: value})
+    except ValueError as exc:
+        assert f"`{field}`" in str(exc) or "`p2`" in str(exc), str(exc)
+        return
+    assert p.effective_p2 > p.effective_p1 >= 0
+    assert SGMParams(**{**p.to_dict(), "census_window": p.census_window}) == p
