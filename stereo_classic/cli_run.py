@@ -444,7 +444,7 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: A
     interrupted = False
     try:
         for frame in source.frames(skip_log):
-            rig = frame.rig if frame.rig is not None else base_rig
+            rig = original_rig = frame.rig if frame.rig is not None else base_rig
             if rig is None:
                 raise ValueError(f"frame {frame.name}: no calibration")
             key = id(rig)
@@ -457,7 +457,6 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: A
                     tolerance_px=cfg["tolerance_px"], near_support=cfg["near_support"],
                     centre_sigma=cfg["centre_sigma"], grow_density=cfg["grow_density"], seed=cfg["seed"],
                     classes=cfg["classes"] or None, concurrent=cfg["concurrent"]))
-            original_rig = rig if frame.rig is not None else base_rig
             rig, loc = localizers[key]
             left, right = frame.left, frame.right
             if cfg["scale"] != 1.0:

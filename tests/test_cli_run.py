@@ -1,0 +1,323 @@
+"""``python -m stereo_classic run`` in-process: outputs, errors, config, Ctrl-C, --resume, determinism."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from stereo_classic.cli import main
+from tests.test_fusion_scenes import planted_scene
+
+EVERY_KIND = ("boxes.png", "disparity.png", "depth.png", "disparity.pfm", "disparity_kitti.png", "points.ply",
+              "objects.json")
+
+
+def _check_outputs(out: Path, name: str, shape: tuple[int, int], kinds=EVERY_KIND) -> dict:
+    from stereo_classic import io
+
+    h, w = shape
+    for kind in kinds:
+        assert (out / f"{name}_{kind}").is_file(), f"{name}_{kind} missing in {sorted(os.listdir(out))}"
+    if "boxes.png" in kinds:
+        assert io.read_image(out / f"{name}_boxes.png").shape == (h, w, 3)
+    for kind in ("disparity.png", "depth.png"):
+        if kind in kinds:
+            assert io.read_image(out / f"{name}_{kind}").shape == (h, w, 3)
+    pfm = io.read_pfm(out / f"{name}_disparity.pfm")
+    assert pfm.shape == (h, w) and pfm.dtype == np.float32 and np.isfinite(pfm).mean() > 0.3
+    kitti = io.read_kitti_disparity(out / f"{name}_disparity_kitti.png")
+    both = np.isfinite(kitti) & np.isfinite(pfm)
+    assert both.mean() > 0.3 and np.abs(kitti[both] - pfm[both]).max() <= 1 / 256 + 1e-6
+    if "points.ply" in kinds:
+        points, colors = io.read_ply(out / f"{name}_points.ply")
+        assert points.shape[1] == 3 and len(points) > 1000 and np.all(np.isfinite(points))
+        assert colors is not None and colors.shape == points.shape
+    assert not [p for p in os.listdir(out) if p.endswith(".tmp")]
+    if "objects.json" in kinds:
+        return json.loads((out / f"{name}_objects.json").read_text())
+    return {}
+
+
+def _write_pair(folder: Path, name: str, seed: int = 0, size=(240, 160), z_box=3.0) -> tuple[Path, Path]:
+    from stereo_classic import io
+
+    left, right, _, _ = planted_scene(width=size[0], height=size[1], z_box=z_box, z_wall=8.0,
+                                      box=(80, 50, 160, 110), seed=seed)
+    lp, rp = folder / f"{name}_L.png", folder / f"{name}_R.png"
+    io.write_image(lp, left)
+    io.write_image(rp, right)
+    return lp, rp
+
+
+def _write_calib(path: Path, size=(240, 160)) -> Path:
+    from calib import RectifiedRig
+
+    w, h = size
+    RectifiedRig(focal_px=700.0, cx_left=(w - 1) / 2, cx_right=(w - 1) / 2, cy=(h - 1) / 2, baseline_m=0.12,
+                 image_size=(w, h)).to_opencv_yaml(path)
+    return path
+
+
+@pytest.fixture()
+def pairs(tmp_path):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    files = [_write_pair(folder, f"f{i}", seed=i, z_box=2.5 + 0.5 * i) for i in range(3)]
+    return folder, files, _write_calib(tmp_path / "rig.yaml")
+
+
+def _base(pairs_fixture, out: Path) -> list[str]:
+    folder, _, calib_file = pairs_fixture
+    return ["-q", "run", "--left", str(folder / "*_L.png"), "--right", str(folder / "*_R.png"),
+            "--calib", str(calib_file), "--model", "none", "--num-disparities", "48", "-o", str(out)]
+
+
+# --- the demo and the KITTI pair -----------------------------------------------------------------------
+
+def test_demo_prints_the_table_and_writes_every_output(tmp_path, shared_models, monkeypatch, capsys):
+    monkeypatch.setenv("STEREO_CLASSIC_MODELS", str(shared_models))
+    out = tmp_path / "stereo_out"
+    assert main(["run", "-o", str(out), "--ply"]) == 0
+    stdout = capsys.readouterr().out
+    assert "motorcycle 0.9" in stdout and " m x=" in stdout
+    record = _check_outputs(out, "motorcycle_skimage", (500, 741))
+    moto = [o for o in record["objects"] if o["label"] == "motorcycle"]
+    assert len(moto) == 1 and moto[0]["status"] == "ok" and 1.5 < moto[0]["distance_m"] < 3.5
+    assert record["detector"] == "yolox_nano" and len(moto[0]["xyz_m"]) == 3
+
+
+def test_demo_offline_without_a_model_still_writes_depth(tmp_path, capsys):
+    out = tmp_path / "o"
+    assert main(["run", "-o", str(out), "--model", str(tmp_path / "missing.onnx"), "--scale", "0.5"]) == 0
+    captured = capsys.readouterr()
+    warning = [line for line in captured.err.splitlines() if "detector" in line]
+    assert len(warning) == 1 and "missing.onnx" in warning[0]
+    record = _check_outputs(out, "motorcycle_skimage", (250, 370), kinds=EVERY_KIND[:-2] + ("objects.json",))
+    assert record["objects"] == [] and record["detector"] is None
+
+
+def test_kitti_pair_from_files(tmp_path, shared_data, yolox_nano, capsys):
+    d = shared_data / "kitti_object_pair"
+    out = tmp_path / "k"
+    argv = ["run", "--left", str(d / "left.png"), "--right", str(d / "right.png"), "--calib", str(d / "calib.txt"),
+            "--model", str(yolox_nano), "--num-disparities", "128", "-o", str(out), "--ply"]
+    assert main(argv) == 0
+    assert capsys.readouterr().out.count("car ") == 4
+    record = _check_outputs(out, "left", (375, 1242))
+    cars = [o for o in record["objects"] if o["label"] == "car"]
+    assert len(cars) == 4 and all(c["status"] == "ok" and 2.0 < c["distance_m"] < 30.0 for c in cars)
+
+
+# --- determinism, Ctrl-C, --resume ----------------------------------------------------------------------
+
+def test_json_is_byte_identical_across_runs_and_thread_counts(tmp_path, pairs):
+    outs = []
+    for i, threads in enumerate(("1", "2", "2")):
+        out = tmp_path / f"o{i}"
+        assert main(_base(pairs, out) + ["--threads", threads, "--seed", "5"]) == 0
+        outs.append((out / "objects.jsonl").read_bytes())
+    assert outs[0] == outs[1] == outs[2]
+    lines = outs[0].decode().splitlines()
+    assert [json.loads(line)["frame"] for line in lines] == ["f0_L", "f1_L", "f2_L"]
+
+
+def test_ctrl_c_leaves_finished_frames_complete_and_resume_finishes(tmp_path, pairs, monkeypatch, capsys):
+    from stereo_classic import pipeline
+
+    out = tmp_path / "o"
+    calls = {"n": 0}
+    real_call = pipeline.Localizer.__call__
+
+    def interrupt_on_second(self, left, right):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise KeyboardInterrupt
+        return real_call(self, left, right)
+
+    monkeypatch.setattr(pipeline.Localizer, "__call__", interrupt_on_second)
+    assert main(_base(pairs, out)) == 130
+    assert "interrupted" in capsys.readouterr().err
+    _check_outputs(out, "f0_L", (160, 240), kinds=EVERY_KIND[:5])
+    assert not list(out.glob("f1_L*")) and not list(out.glob("f2_L*"))
+    assert len((out / "objects.jsonl").read_text().splitlines()) == 1
+    monkeypatch.setattr(pipeline.Localizer, "__call__", real_call)
+
+    assert main(_base(pairs, out)[1:] + ["--resume"]) == 0  # without -q: the summary is shown
+    assert "1 finished frame(s) skipped" in capsys.readouterr().err
+    for name in ("f0_L", "f1_L", "f2_L"):
+        _check_outputs(out, name, (160, 240), kinds=EVERY_KIND[:5])
+    fresh = tmp_path / "fresh"
+    assert main(_base(pairs, fresh)) == 0
+    assert (out / "objects.jsonl").read_bytes() == (fresh / "objects.jsonl").read_bytes()
+
+
+def test_ctrl_c_while_writing_finishes_that_frame_first(tmp_path, pairs, monkeypatch):
+    from stereo_classic import io
+
+    out = tmp_path / "o"
+    real = io.write_pfm
+    calls = {"n": 0}
+
+    def pfm_then_sigint(path, array, **kw):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C in the middle of frame 2's files
+        return real(path, array, **kw)
+
+    monkeypatch.setattr(io, "write_pfm", pfm_then_sigint)
+    assert main(_base(pairs, out)) == 130
+    for name in ("f0_L", "f1_L"):
+        _check_outputs(out, name, (160, 240), kinds=EVERY_KIND[:5])
+    assert not list(out.glob("f2_L*"))
+    assert len((out / "objects.jsonl").read_text().splitlines()) == 2
+
+
+def test_resume_drops_a_torn_jsonl_line(tmp_path, pairs):
+    out = tmp_path / "o"
+    assert main(_base(pairs, out)) == 0
+    full = (out / "objects.jsonl").read_bytes()
+    lines = full.decode().splitlines(keepends=True)
+    (out / "objects.jsonl").write_text(lines[0] + lines[1][:20])  # frame 1's line torn, frame 2's gone
+    assert main(_base(pairs, out) + ["--resume"]) == 0
+    assert (out / "objects.jsonl").read_bytes() == full
+
+
+# --- video and camera -------------------------------------------------------------------------------------
+
+def _write_video(path: Path, n: int) -> None:
+    left, right, _, _ = planted_scene(width=240, height=160, z_box=3.0, z_wall=8.0, box=(80, 50, 160, 110))
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 5.0, (480, 160))
+    assert writer.isOpened()
+    for _ in range(n):
+        writer.write(np.hstack([left, right]))
+    writer.release()
+
+
+def test_side_by_side_video(tmp_path, capsys):
+    video = tmp_path / "sbs.avi"
+    _write_video(video, 3)
+    out = tmp_path / "o"
+    calib_file = _write_calib(tmp_path / "rig.yaml")
+    argv = ["run", "--video", str(video), "--calib", str(calib_file), "--model", "none", "--num-disparities", "48",
+            "-o", str(out)]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "3 frame(s)" in err and "frames/s" in err
+    names = [json.loads(line)["frame"] for line in (out / "objects.jsonl").read_text().splitlines()]
+    assert names == ["frame_000000", "frame_000001", "frame_000002"]
+
+
+class _FakeCamera:
+    """Delivers two side-by-side frames, then stops (a camera unplugged)."""
+
+    def __init__(self, index):
+        left, right, _, _ = planted_scene(width=240, height=160, z_box=3.0, z_wall=8.0, box=(80, 50, 160, 110))
+        self.frames = [np.hstack([left, right])] * 2
+
+    def isOpened(self):  # noqa: N802 (OpenCV's name)
+        return True
+
+    def read(self):
+        return (True, self.frames.pop()) if self.frames else (False, None)
+
+    def get(self, prop):
+        return 0.0
+
+    def release(self):
+        pass
+
+
+def test_camera_that_stops_ends_cleanly_with_a_summary(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(cv2, "VideoCapture", _FakeCamera)
+    out = tmp_path / "o"
+    argv = ["run", "--camera", "0", "--calib", str(_write_calib(tmp_path / "rig.yaml")), "--model", "none",
+            "--num-disparities", "48", "-o", str(out)]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "stopped delivering frames after 2 frame(s)" in err and "2 frame(s)" in err
+    assert "Traceback" not in err
+    assert len((out / "objects.jsonl").read_text().splitlines()) == 2
+
+
+# --- bad input: one line, the right exit code, nothing written ------------------------------------------
+
+def _bad_cases(tmp_path: Path) -> dict[str, tuple[list[str], int, str]]:
+    from stereo_classic import io
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    lp, rp = _write_pair(folder, "a")
+    small = folder / "small_R.png"
+    io.write_image(small, io.read_image(rp)[:, :200])
+    broken = folder / "broken_L.png"
+    broken.write_bytes(b"\x89PNG\r\n\x1a\n not really")
+    calib_ok = _write_calib(tmp_path / "rig.yaml")
+    calib_other = _write_calib(tmp_path / "other.yaml", size=(320, 240))
+    base = ["run", "--model", "none", "--num-disparities", "48"]
+    return {
+        "mismatched sizes": (base + ["--left", str(lp), "--right", str(small), "--calib", str(calib_ok)], 1, "differ"),
+        "unreadable file": (base + ["--left", str(broken), "--right", str(rp), "--calib", str(calib_ok)], 1, "broken_L"),
+        "missing file": (base + ["--left", str(folder / "nope.png"), "--right", str(rp), "--calib", str(calib_ok)], 1, "nope.png"),
+        "calibration size": (base + ["--left", str(lp), "--right", str(rp), "--calib", str(calib_other)], 1, "320x240"),
+        "empty glob": (base + ["--left", str(folder / "*.jpg"), "--right", str(folder / "*.jpg"), "--calib", str(calib_ok)], 2, "matches no file"),
+        "camera": (base + ["--camera", "57", "--calib", str(calib_ok)], 1, "camera 57"),
+        "left without right": (base + ["--left", str(lp), "--calib", str(calib_ok)], 2, "--right"),
+        "no calib": (base + ["--left", str(lp), "--right", str(rp)], 2, "--calib"),
+        "two inputs": (base + ["--left", str(lp), "--right", str(rp), "--dataset", str(folder)], 2, "choose one input"),
+        "bad save": (base + ["--save", "boxes,nonsense"], 2, "nonsense"),
+        "bad matcher value": (base + ["--cost", "ssd"], 2, "cost"),
+        "bad fusion value": (base + ["--box-shrink", "1.5"], 1, "box_shrink"),
+        "missing config": (base + ["--config", str(tmp_path / "none.toml")], 2, "none.toml"),
+    }
+
+
+@pytest.mark.parametrize("case", ["mismatched sizes", "unreadable file", "missing file", "calibration size", "empty glob",
+                                  "camera", "left without right", "no calib", "two inputs", "bad save",
+                                  "bad matcher value", "bad fusion value", "missing config"])
+def test_bad_input_one_line_right_code_nothing_written(tmp_path, capsys, case):
+    argv, code, needle = _bad_cases(tmp_path)[case]
+    out = tmp_path / "out"
+    assert main(argv + ["-o", str(out)]) == code
+    err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
+    assert len(err) == 1 and err[0].startswith("error:") and needle in err[0], err
+    assert not out.exists() or not any(out.iterdir())
+
+
+def test_verbose_shows_the_traceback(tmp_path, capsys):
+    argv, code, _ = _bad_cases(tmp_path)["calibration size"]
+    assert main(["-v"] + argv + ["-o", str(tmp_path / "out")]) == code
+    assert "Traceback" in capsys.readouterr().err
+
+
+# --- config ---------------------------------------------------------------------------------------------------
+
+def test_dump_config_round_trips_and_flags_win(tmp_path, capsys):
+    assert main(["run", "--dump-config", "--conf", "0.4", "--classes", "car,person", "--num-disparities", "96"]) == 0
+    text = capsys.readouterr().out
+    assert "conf = 0.4" in text and 'classes = ["car", "person"]' in text and "num_disparities = 96" in text
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(text.replace("conf = 0.4", "conf = 0.25"))
+    assert main(["run", "--config", str(cfg), "--dump-config", "--seed", "9"]) == 0
+    again = capsys.readouterr().out
+    assert "conf = 0.25" in again and "seed = 9" in again and "num_disparities = 96" in again
+
+
+@pytest.mark.parametrize("content, needle", [
+    ("conf = 'high'", "conf"),
+    ("colour = 1", "colour"),
+    ("[matcher]\nwindow = 3", "window"),
+    ("conf = ", "not valid TOML"),
+    ("depth_range = [1]", "depth_range"),
+])
+def test_bad_config_is_a_usage_error(tmp_path, capsys, content, needle):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(content)
+    assert main(["run", "--config", str(cfg), "--dump-config"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and needle in err[0] and "c.toml" in err[0]
