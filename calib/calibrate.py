@@ -107,7 +107,7 @@ def _view_name(item: Any, index: int) -> str:
 
 def calibrate_stereo(left_images: Sequence[Any], right_images: Sequence[Any], *, board: Board, min_views: int = 5,
                      fix_k3: bool = False, rational_model: bool = False, names: Sequence[str] | None = None,
-                     ) -> tuple[StereoRig, CalibrationReport]:
+                     progress: bool = False) -> tuple[StereoRig, CalibrationReport]:
     """Calibrate a stereo pair from views of a board.
 
     Each camera is calibrated alone first (``cv2.calibrateCamera``), then both are refined together with
@@ -129,6 +129,8 @@ def calibrate_stereo(left_images: Sequence[Any], right_images: Sequence[Any], *,
         Use 8 distortion coefficients (``CALIB_RATIONAL_MODEL``) instead of 5.
     names : sequence of str, optional
         View names for the report (default: file names, or ``"view i"``).
+    progress : bool
+        Show a tqdm progress bar over the views on stderr (only when it is a terminal).
 
     Returns
     -------
@@ -162,7 +164,12 @@ def calibrate_stereo(left_images: Sequence[Any], right_images: Sequence[Any], *,
 
     size: tuple[int, int] | None = None
     obj_points, pts_left, pts_right, used, rejected = [], [], [], [], []
-    for i, (item_l, item_r) in enumerate(zip(left_images, right_images)):
+    pairs = enumerate(zip(left_images, right_images))
+    if progress:
+        from tqdm import tqdm
+
+        pairs = tqdm(pairs, total=len(left_images), desc="finding the board", unit="pair", disable=None, leave=False)
+    for i, (item_l, item_r) in pairs:
         img_l, img_r = _load(item_l, f"left_images[{i}]"), _load(item_r, f"right_images[{i}]")
         for side, img in (("left", img_l), ("right", img_r)):
             this = (img.shape[1], img.shape[0])

@@ -141,7 +141,7 @@ def func(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     rig, report = calib.calibrate_stereo(
         [p[0] for p in pairs], [p[1] for p in pairs], board=board, min_views=args.min_views,
-        fix_k3=args.fix_k3, rational_model=args.rational, names=[p[0].name for p in pairs],
+        fix_k3=args.fix_k3, rational_model=args.rational, names=[p[0].name for p in pairs], progress=not args.quiet,
     )
     elapsed = time.perf_counter() - start
     rig.to_opencv_yaml(output)
