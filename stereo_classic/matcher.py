@@ -153,6 +153,8 @@ def _as_image(name: str, image: Any) -> np.ndarray:
         arr = np.asarray(image)
     except (ValueError, TypeError) as exc:
         raise StereoInputError(f"`{name}` must be an image array, got {type(image).__name__} ({exc})") from None
+    if not arr.dtype.isnative and arr.dtype.newbyteorder("=") in SUPPORTED_DTYPES:
+        arr = arr.astype(arr.dtype.newbyteorder("="))  # e.g. big-endian '>f4' from a file
     if arr.dtype not in SUPPORTED_DTYPES:
         raise StereoInputError(f"`{name}` must have dtype uint8, uint16, float32 or float64, got {arr.dtype}")
     if arr.ndim == 3 and arr.shape[2] == 1:

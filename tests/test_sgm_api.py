@@ -173,6 +173,13 @@ class TestComputeDisparity:
         assert np.isfinite(interior).mean() > 0.9
         assert np.nanmedian(np.abs(interior - 5.0)) < 0.05
 
+    def test_non_native_byte_order(self):
+        left, right = _shift_pair(shift=5)
+        big = [im.astype(">f4") for im in (left, right)]
+        np.testing.assert_array_equal(compute_disparity(*big, num_disparities=16).disparity,
+                                      compute_disparity(left.astype(np.float32), right.astype(np.float32),
+                                                        num_disparities=16).disparity)
+
     def test_grey_conversion_shares_one_mapping(self):
         rng = np.random.default_rng(1)
         a = rng.uniform(100, 1000, (20, 30))
