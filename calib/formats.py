@@ -281,10 +281,29 @@ def _rectified_from_projections(path: Path, p1: np.ndarray, p2: np.ndarray, size
         raise _rig_error(path, exc) from None
 
 
-def read_opencv_rectified(path: _PathLike, *, image_size: tuple[int, int] | None = None) -> RectifiedRig:
-    """A :class:`RectifiedRig` from an OpenCV YAML/XML with ``P1`` and ``P2`` (3x4), or else ``Q`` (4x4)."""
+def read_opencv_rectified(path: _PathLike, *, image_size: tuple[int, int] | None = None, maps: bool = False) -> RectifiedRig:
+    """A :class:`RectifiedRig` from an OpenCV YAML/XML with ``P1`` and ``P2`` (3x4), or else ``Q`` (4x4).
+
+    With ``maps=True`` the file must also hold ``K1 D1 K2 D2 R1 R2``: the rig then gets the undistort/rectify
+    maps of exactly that rectification, so that :meth:`RectifiedRig.rectify_pair` takes raw images.
+    """
     st = _Storage(path, "OpenCV calibration")
     size = st.image_size(image_size)
+    if maps:
+        p1, p2 = st.matrix("P1", (3, 4)), st.matrix("P2", (3, 4))
+        rig = _rectified_from_projections(st.path, p1, p2, size, ("P1", "P2"))
+        k1 = st.matrix(st.first("K1", "M1", "cameraMatrix1") or "K1", (3, 3))
+        k2 = st.matrix(st.first("K2", "M2", "cameraMatrix2") or "K2", (3, 3))
+        d1 = st.vector(st.first("D1", "distCoeffs1") or "D1")
+        d2 = st.vector(st.first("D2", "distCoeffs2") or "D2")
+        r1, r2 = st.matrix("R1", (3, 3)), st.matrix("R2", (3, 3))
+        try:
+            map_l = cv2.initUndistortRectifyMap(k1, d1, r1, p1, size, cv2.CV_16SC2)
+            map_r = cv2.initUndistortRectifyMap(k2, d2, r2, p2, size, cv2.CV_16SC2)
+        except cv2.error as exc:
+            raise CalibrationError(f"{st.path}: cannot build rectification maps ({str(exc).strip().splitlines()[-1]})") from None
+        return RectifiedRig(focal_px=rig.focal_px, cx_left=rig.cx_left, cx_right=rig.cx_right, cy=rig.cy,
+                            baseline_m=rig.baseline_m, image_size=size, maps_left=map_l, maps_right=map_r, raw_image_size=size)
     if st.has("P1") and st.has("P2"):
         return _rectified_from_projections(st.path, st.matrix("P1", (3, 4)), st.matrix("P2", (3, 4)), size, ("P1", "P2"))
     if st.has("Q"):

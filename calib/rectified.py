@@ -300,11 +300,16 @@ class RectifiedRig:
         return read_oakd_json(path)
 
     @classmethod
-    def from_opencv_yaml(cls, path: str | os.PathLike[str], *, image_size: tuple[int, int] | None = None) -> RectifiedRig:
-        """OpenCV FileStorage YAML/XML with ``P1`` and ``P2`` (or ``Q``) of an already rectified pair."""
+    def from_opencv_yaml(cls, path: str | os.PathLike[str], *, image_size: tuple[int, int] | None = None,
+                         maps: bool = False) -> RectifiedRig:
+        """OpenCV FileStorage YAML/XML with ``P1`` and ``P2`` (or ``Q``) of an already rectified pair.
+
+        ``maps=True``: also build the rectification maps from the file's ``K1 D1 K2 D2 R1 R2 P1 P2``, so that
+        :meth:`rectify_pair` takes raw images and rectifies them exactly as the file says.
+        """
         from calib.formats import read_opencv_rectified
 
-        return read_opencv_rectified(path, image_size=image_size)
+        return read_opencv_rectified(path, image_size=image_size, maps=maps)
 
     def to_opencv_yaml(self, path: str | os.PathLike[str]) -> None:
         """Write ``P1``, ``P2``, ``Q`` and the image size to an OpenCV YAML (or XML, by extension), atomically."""

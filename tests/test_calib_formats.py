@@ -105,6 +105,22 @@ def test_opencv_round_trip_is_exact(tmp_path, name):
     assert list(tmp_path.iterdir()) == [path]  # no temp files left behind
 
 
+def test_rectified_with_maps_from_the_file(tmp_path):
+    path = tmp_path / "rig.yaml"
+    RIG.to_opencv_yaml(path)
+    from_file = RectifiedRig.from_opencv_yaml(path, maps=True)
+    ref = RIG.rectify(alpha=0.0)
+    assert from_file.has_maps and from_file.raw_image_size == (640, 480)
+    np.testing.assert_array_equal(from_file.maps_left[0], ref.maps_left[0])
+    np.testing.assert_array_equal(from_file.maps_right[1], ref.maps_right[1])
+    raw = np.random.default_rng(0).integers(0, 256, (480, 640), dtype=np.uint8)
+    np.testing.assert_array_equal(from_file.rectify_pair(raw, raw, check_offset=False)[0],
+                                  ref.rectify_pair(raw, raw, check_offset=False)[0])
+    path.write_text(path.read_text().replace("R1:", "RR1:"))
+    with pytest.raises(CalibrationError, match="missing key `R1`"):
+        RectifiedRig.from_opencv_yaml(path, maps=True)
+
+
 def test_rectified_round_trip(tmp_path, shared_data):
     rig = RectifiedRig.from_middlebury(shared_data / "middlebury2014/trainingQ/Motorcycle/calib.txt")
     rig.to_opencv_yaml(tmp_path / "rect.yaml")
