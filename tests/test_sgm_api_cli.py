@@ -123,3 +123,16 @@ def test_runtime_failures_exit_1_and_write_nothing(pair_files, tmp_path, capsys)
                  "--memory-limit", "1000"]) == 1
     assert "GiB" in capsys.readouterr().err
     assert not out.exists() and not (tmp_path / "out.png").exists()
+
+
+def test_sixteen_bit_grey_pngs(tmp_path):
+    rng = np.random.default_rng(3)
+    right = (rng.integers(0, 4096, (40, 90)) * 16).astype(np.uint16)  # 12-bit data in a 16-bit container
+    left = np.roll(right, 4, axis=1)
+    lp, rp, out = tmp_path / "l16.png", tmp_path / "r16.png", tmp_path / "d.pfm"
+    cv2.imwrite(str(lp), left)
+    cv2.imwrite(str(rp), right)
+    assert cv2.imread(str(lp), cv2.IMREAD_UNCHANGED).dtype == np.uint16
+    assert main(["disparity", str(lp), str(rp), "-o", str(out), "--num-disparities", "16", "--no-subpixel"]) == 0
+    disp = _read_pfm(out)
+    assert np.nanmedian(disp[6:-6, 22:-6]) == 4.0
