@@ -57,10 +57,15 @@ def _as_real_array(name: str, values: Any) -> np.ndarray:
     return arr
 
 
+def _work_dtype(arr: np.ndarray) -> type:
+    """float64 for 64-bit input, else float32 (half the memory of float64 temporaries on large maps)."""
+    return np.float64 if arr.dtype.itemsize > 4 else np.float32
+
+
 def _finite_float32(values: np.ndarray) -> np.ndarray:
     """Cast float64 to float32, turning anything that is not finite after the cast into NaN."""
     with np.errstate(over="ignore", invalid="ignore"):
-        out = values.astype(np.float32)
+        out = values.astype(np.float32)  # a copy: never the caller's array
     out[~np.isfinite(out)] = np.nan
     return out
 
@@ -93,10 +98,11 @@ def depth_from_disparity(disparity: Any, focal_px: float, baseline_m: float, dof
     focal_px = check_positive("focal_px", focal_px)
     baseline_m = check_positive("baseline_m", baseline_m)
     doffs = check_finite("doffs", doffs)
-    d = _as_real_array("disparity", disparity).astype(np.float64)
-    denom = d + doffs
+    d = _as_real_array("disparity", disparity)
+    d = d.astype(_work_dtype(d), copy=False)
+    denom = d + d.dtype.type(doffs)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        z = np.where(np.isfinite(denom) & (denom > 0.0), (focal_px * baseline_m) / denom, np.nan)
+        z = np.where(np.isfinite(denom) & (denom > 0), d.dtype.type(focal_px * baseline_m) / denom, d.dtype.type(np.nan))
     return _finite_float32(np.asarray(z))
 
 
@@ -116,9 +122,10 @@ def disparity_from_depth(depth: Any, focal_px: float, baseline_m: float, doffs: 
     focal_px = check_positive("focal_px", focal_px)
     baseline_m = check_positive("baseline_m", baseline_m)
     doffs = check_finite("doffs", doffs)
-    z = _as_real_array("depth", depth).astype(np.float64)
+    z = _as_real_array("depth", depth)
+    z = z.astype(_work_dtype(z), copy=False)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        d = np.where(np.isfinite(z) & (z > 0.0), (focal_px * baseline_m) / z - doffs, np.nan)
+        d = np.where(np.isfinite(z) & (z > 0), z.dtype.type(focal_px * baseline_m) / z - z.dtype.type(doffs), z.dtype.type(np.nan))
     return _finite_float32(np.asarray(d))
 
 
@@ -148,13 +155,13 @@ def points_from_disparity(disparity: Any, rig: _RigLike) -> np.ndarray:
     f = check_positive("rig.focal_px", rig.focal_px)
     cx = check_finite("rig.cx_left", rig.cx_left)
     cy = check_finite("rig.cy", rig.cy)
-    z = depth_from_disparity(d, f, rig.baseline_m, rig.doffs).astype(np.float64)
-    u = np.arange(width, dtype=np.float64)[None, :]
-    v = np.arange(height, dtype=np.float64)[:, None]
-    out = np.empty((height, width, 3), dtype=np.float64)
-    out[..., 0] = (u - cx) * z / f
-    out[..., 1] = (v - cy) * z / f
-    out[..., 2] = z
-    points = _finite_float32(out)
-    points[np.isnan(points).any(axis=-1)] = np.nan
+    z = depth_from_disparity(d, f, rig.baseline_m, rig.doffs)  # float32, NaN where unknown
+    u = ((np.arange(width, dtype=np.float64) - cx) / f).astype(np.float32)[None, :]
+    v = ((np.arange(height, dtype=np.float64) - cy) / f).astype(np.float32)[:, None]
+    points = np.empty((height, width, 3), dtype=np.float32)  # 12 bytes per pixel, no float64 temporaries
+    with np.errstate(over="ignore", invalid="ignore"):
+        np.multiply(u, z, out=points[..., 0])
+        np.multiply(v, z, out=points[..., 1])
+    points[..., 2] = z
+    points[~np.isfinite(points).all(axis=-1)] = np.nan
     return points

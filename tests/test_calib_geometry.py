@@ -30,6 +30,13 @@ class TestDepthFromDisparity:
         z = depth_from_disparity(np.array([-32.778, -30.0]), F, B, doffs=32.778)
         assert np.isnan(z[0]) and z[1] == pytest.approx(F * B / 2.778, rel=1e-5)
 
+    def test_input_is_not_modified_and_output_is_a_new_array(self):
+        d = np.array([np.nan, -1.0, 5.0], dtype=np.float32)
+        before = d.copy()
+        z = depth_from_disparity(d, F, B)
+        np.testing.assert_array_equal(d, before)
+        assert not np.shares_memory(z, d)
+
     @pytest.mark.parametrize("dtype", [np.uint8, np.int16, np.int32, np.float16, np.float32, np.float64])
     def test_dtypes_give_float32(self, dtype):
         z = depth_from_disparity(np.full((3, 4), 10, dtype=dtype), F, B)
