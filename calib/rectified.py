@@ -103,6 +103,7 @@ class RectifiedRig:
     raw_image_size: tuple[int, int] | None = field(default=None, compare=False)
     roi_left: tuple[int, int, int, int] | None = field(default=None, compare=False)
     roi_right: tuple[int, int, int, int] | None = field(default=None, compare=False)
+    _checks: dict[str, float] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         def _num(name: str, positive: bool = False) -> float:
@@ -236,9 +237,10 @@ class RectifiedRig:
         left, right : (H, W) or (H, W, C) images of the same shape
             Raw images of ``raw_image_size`` when the rig has maps, else rectified images of ``image_size``.
         check_offset : bool or None
-            Measure the residual vertical offset with feature matching (:func:`calib.vertical_offset`) and
-            warn (``RectificationWarning`` and a log message) when it is above 1 px. None: only when
-            remapping.
+            Measure the residual vertical offset with feature matching (:func:`calib.vertical_offset`, about
+            0.1-0.5 s) and warn (``RectificationWarning`` and a log message) when it is above 1 px.
+            True: every call. False: never. None (default): on the first pair this rig remaps, so that a video
+            loop pays for it once.
 
         Returns
         -------
@@ -261,10 +263,13 @@ class RectifiedRig:
         if self.has_maps:
             left = cv2.remap(left, *self.maps_left, interpolation)  # type: ignore[misc]
             right = cv2.remap(right, *self.maps_right, interpolation)  # type: ignore[misc]
-        if check_offset if check_offset is not None else self.has_maps:
+        if check_offset is None:
+            check_offset = self.has_maps and "vertical_offset_px" not in self._checks
+        if check_offset:
             from calib.features import vertical_offset
 
             offset = vertical_offset(left, right)
+            self._checks["vertical_offset_px"] = offset
             if math.isnan(offset):
                 log.info("rectify_pair: too few feature matches to measure the vertical offset")
             elif offset > VERTICAL_OFFSET_WARN_PX:

@@ -221,6 +221,11 @@ class TestRectifyPairOnRealImages:
                            [-0.193, 0, 0], (w, h)).rectify()
         with pytest.warns(RectificationWarning):
             tilted.rectify_pair(left, right)
+        with warnings.catch_warnings():  # by default only the first pair is measured
+            warnings.simplefilter("error")
+            tilted.rectify_pair(left, right)
+        with pytest.warns(RectificationWarning):
+            tilted.rectify_pair(left, right, check_offset=True)
         with pytest.raises(ValueError, match="raw images"):
             good.rectify_pair(left[:200], right[:200])
 
