@@ -116,7 +116,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     run = p.add_argument_group("run")
     run.add_argument("--threads", type=int, default=None, metavar="N", help="threads for the matcher and the detector (default: all)")
     run.add_argument("--concurrent", action=argparse.BooleanOptionalAction, default=None,
-                     help="run the detector in a thread beside the matcher (default on)")
+                     help="run the detector in a thread beside the matcher (default off: not faster on 2 cores)")
     run.add_argument("--config", metavar="FILE.toml", help="read options from a TOML file (flags win)")
     run.add_argument("--dump-config", action="store_true", help="print the merged options as TOML and exit")
     p.set_defaults(func=func)

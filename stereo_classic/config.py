@@ -50,7 +50,7 @@ RUN_DEFAULTS: dict[str, tuple[Any, str]] = {
     "threads": (0, "int"),
     "scale": (1.0, "float"),
     "max_frames": (0, "int"),
-    "concurrent": (True, "bool"),
+    "concurrent": (False, "bool"),
 }
 
 

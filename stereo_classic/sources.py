@@ -177,7 +177,16 @@ class SceneSource:
             scenes = list(datasets.iter_scenes(path))
         if not scenes:
             raise SourceError(f"no stereo scene (Middlebury, KITTI, ...) found in {path}")
-        return cls(scenes)
+        calibrated = [s for s in scenes if getattr(s, "rig", None) is not None]
+        if not calibrated:
+            raise SourceError(f"no scene in {path} has a calibration (metric distances need one): "
+                              f"{', '.join(s.name for s in scenes[:3])}")
+        if len(calibrated) < len(scenes):
+            import logging
+
+            logging.getLogger("stereo_classic.run").warning(
+                "skipping %d scene(s) without a calibration in %s", len(scenes) - len(calibrated), path)
+        return cls(calibrated)
 
     def __len__(self) -> int:
         return len(self.scenes)

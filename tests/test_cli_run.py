@@ -321,3 +321,14 @@ def test_bad_config_is_a_usage_error(tmp_path, capsys, content, needle):
     assert main(["run", "--config", str(cfg), "--dump-config"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and needle in err[0] and "c.toml" in err[0]
+
+
+def test_dataset_folder_with_max_frames_and_scale(tmp_path, shared_data, capsys):
+    out = tmp_path / "o"
+    argv = ["run", "--dataset", str(shared_data / "oakd"), "--max-frames", "2", "--scale", "0.5", "--model", "none",
+            "-o", str(out)]
+    assert main(argv) == 0
+    records = [json.loads(line) for line in (out / "objects.jsonl").read_text().splitlines()]
+    assert len(records) == 2 and all(r["image_size"] == [320, 240] for r in records)
+    for r in records:
+        _check_outputs(out, r["frame"], (240, 320), kinds=EVERY_KIND[:5])

@@ -1,0 +1,208 @@
+"""Tests for stereo_classic.pipeline (Localizer, PipelineResult, format_timings), sources and config."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from stereo_classic.pipeline import STAGES, Localizer, format_timings
+from tests.test_fusion_scenes import planted_scene
+
+
+def _rig(width=240, height=160):
+    from calib import RectifiedRig
+
+    return RectifiedRig(focal_px=700.0, cx_left=(width - 1) / 2, cx_right=(width - 1) / 2, cy=(height - 1) / 2,
+                        baseline_m=0.12, image_size=(width, height))
+
+
+class _Boxes:
+    """Detector stand-in: fixed boxes, counts its calls."""
+
+    def __init__(self, boxes, names=("box", "car")):
+        from detectors import Detections
+
+        n = len(boxes)
+        self.dets = Detections(xyxy=np.array(boxes, np.float32).reshape(n, 4), confidence=np.full(n, 0.8, np.float32),
+                               class_id=np.arange(n) % len(names), class_names=tuple(names))
+        self.calls = 0
+
+    def detect(self, image):
+        self.calls += 1
+        return self.dets
+
+
+@pytest.fixture(scope="module")
+def scene():
+    left, right, gt, _ = planted_scene(z_box=3.0, z_wall=8.0, box=(80, 50, 160, 110), seed=1)
+    return left, right, gt
+
+
+def test_localizer_smoke_depth_only(scene):
+    left, right, _ = scene
+    with Localizer(_rig(), None, {"num_disparities": 48}) as loc:
+        result = loc(left, right)
+    assert result.detections is None and len(result.objects) == 0
+    assert result.disparity.disparity.shape == (160, 240)
+    assert list(result.timings_ms) == list(STAGES)
+
+
+def test_localizer_accuracy_reuse_and_concurrency(scene):
+    left, right, _ = scene
+    det = _Boxes([[80, 50, 160, 110], [0, 0, 40, 30]])
+    seq = Localizer(_rig(), det, {"num_disparities": 48}, concurrent=False)
+    con = Localizer(_rig(), det, {"num_disparities": 48}, concurrent=True)
+    try:
+        a, b, c = seq(left, right), con(left, right), con(left, right)
+    finally:
+        seq.close()
+        con.close()
+    assert det.calls == 3
+    assert a.objects.distance_m[0] == pytest.approx(3.0, rel=0.01)
+    assert json.dumps(a.objects.to_json()) == json.dumps(b.objects.to_json()) == json.dumps(c.objects.to_json())
+    assert a.objects.labels == ("box", "car")
+    np.testing.assert_array_equal(a.disparity.disparity, c.disparity.disparity)
+
+
+def test_localizer_class_filter(scene):
+    left, right, _ = scene
+    with Localizer(_rig(), _Boxes([[80, 50, 160, 110], [0, 0, 40, 30]]), {"num_disparities": 48},
+                   classes=["car"]) as loc:
+        result = loc(left, right)
+    assert result.objects.labels == ("car",) and len(result.detections) == 1
+
+
+@pytest.mark.parametrize("make, match", [
+    (lambda l, r: (l, r[:, :200]), "differ"),
+    (lambda l, r: (l[:100], r[:100]), "calibration"),
+    (lambda l, r: ("left.png", r), "left"),
+])
+def test_localizer_bad_images(scene, make, match):
+    left, right, _ = scene
+    with Localizer(_rig(), None, {"num_disparities": 48}) as loc, pytest.raises(ValueError, match=match):
+        loc(*make(left, right))
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"rig": object()}, "rig"),
+    ({"detector": 42}, "detector"),
+    ({"params": 3}, "params"),
+    ({"params": {"num_disparities": -1}}, "num_disparities"),
+    ({"box_shrink": 2.0}, "box_shrink"),
+    ({"seed": -1}, "seed"),
+])
+def test_localizer_bad_arguments(kwargs, match):
+    args = {"rig": _rig(), "detector": None, "params": None}
+    args.update(kwargs)
+    rig, det, params = args.pop("rig"), args.pop("detector"), args.pop("params")
+    with pytest.raises(ValueError, match=match):
+        Localizer(rig, det, params, **args)
+
+
+def test_localizer_detector_by_path(yolox_nano, shared_data):
+    from stereo_classic.datasets import demo_scene
+
+    scene = demo_scene()
+    with Localizer(scene.rig, str(yolox_nano), {"num_disparities": 80}, detector_options={"conf_threshold": 0.5}) as loc:
+        result = loc(scene.left, scene.right)
+    assert "motorcycle" in result.objects.labels
+
+
+def test_format_timings():
+    text = format_timings([{"disparity": 100.0, "total": 200.0}, {"disparity": 300.0, "total": 300.0, "extra": 1.0}])
+    lines = text.splitlines()
+    assert lines[0].split() == ["stage", "median", "ms", "mean", "ms"]
+    assert lines[1].split() == ["disparity", "200.0", "200.0"]
+    assert lines[2].split() == ["total", "250.0", "250.0"]
+    assert lines[3].split()[0] == "extra"
+    assert lines[-1] == "2 frames, 4.0 frames/s"
+    assert format_timings([]) == "no frames"
+
+
+# --- sources --------------------------------------------------------------------------------------------
+
+def test_expand_pairs_and_names(tmp_path):
+    from stereo_classic.sources import PairSource, SourceError, expand_pairs
+
+    for i in (2, 0, 1):
+        (tmp_path / f"a{i}_L.png").write_bytes(b"x")
+        (tmp_path / f"a{i}_R.png").write_bytes(b"x")
+    pairs = expand_pairs([str(tmp_path / "*_L.png")], [str(tmp_path / "*_R.png")])
+    assert [p[0].name for p in pairs] == ["a0_L.png", "a1_L.png", "a2_L.png"]
+    assert PairSource(pairs).names == ["a0_L", "a1_L", "a2_L"]
+    assert PairSource([(tmp_path / "a0_L.png", tmp_path / "a0_R.png")] * 2).names == ["a0_L", "a0_L_1"]
+    with pytest.raises(SourceError, match="matches no file"):
+        expand_pairs([str(tmp_path / "*.jpg")], [str(tmp_path / "*_R.png")])
+    with pytest.raises(SourceError, match="paired in order"):
+        expand_pairs([str(tmp_path / "*_L.png")], [str(tmp_path / "a0_R.png")])
+    with pytest.raises(FileNotFoundError, match="nope"):
+        expand_pairs([str(tmp_path / "nope.png")], [str(tmp_path / "a0_R.png")])
+
+
+class _Capture:
+    def __init__(self, frames, opened=True, count=0):
+        self.frames, self.opened, self.count = list(frames), opened, count
+
+    def isOpened(self):  # noqa: N802
+        return self.opened
+
+    def read(self):
+        return (True, self.frames.pop(0)) if self.frames else (False, None)
+
+    def get(self, prop):
+        return float(self.count)
+
+    def release(self):
+        self.frames = []
+
+
+def test_side_by_side_source_splits_and_stops():
+    from stereo_classic.sources import SideBySideSource, SourceError
+
+    frame = np.zeros((4, 6, 3), np.uint8)
+    frame[:, 3:] = 255
+    src = SideBySideSource(0, capture_factory=lambda _: _Capture([frame, frame]))
+    got = list(src.frames())
+    assert len(got) == 2 and src.stopped_early and src.frames_read == 2
+    assert got[0].left.shape == (4, 3, 3) and got[0].left.max() == 0 and got[0].right.min() == 255
+    src = SideBySideSource(0, max_frames=1, capture_factory=lambda _: _Capture([frame, frame]))
+    assert len(list(src.frames())) == 1 and not src.stopped_early
+    with pytest.raises(SourceError, match="cannot open camera 3"):
+        SideBySideSource(3, capture_factory=lambda _: _Capture([], opened=False))
+    odd = SideBySideSource(0, capture_factory=lambda _: _Capture([np.zeros((4, 5, 3), np.uint8)]))
+    with pytest.raises(SourceError, match="even width"):
+        list(odd.frames())
+
+
+def test_scene_source_dataset_folder(shared_data):
+    from stereo_classic.sources import SceneSource, SourceError
+
+    src = SceneSource.from_folder(shared_data / "oakd")
+    assert len(src) == 12 and len(set(src.names)) == 12
+    frames = list(src.frames(lambda name: name != src.names[3]))
+    assert len(frames) == 1 and frames[0].rig is not None and frames[0].index == 3
+    with pytest.raises(SourceError, match="calibration"):
+        SceneSource.from_folder(shared_data / "middlebury2001")  # Tsukuba and Venus come without one
+    with pytest.raises(FileNotFoundError):
+        SceneSource.from_folder(shared_data / "no-such-folder")
+    with pytest.raises(SourceError):
+        SceneSource([])
+
+
+# --- config ---------------------------------------------------------------------------------------------------
+
+def test_merge_precedence_and_dump_round_trip(tmp_path):
+    from stereo_classic.config import RUN_DEFAULTS, dump_config, load_config, merge_config
+
+    path = tmp_path / "c.toml"
+    path.write_text('conf = 0.2\nseed = 3\nclasses = ["car"]\n[matcher]\nnum_disparities = 64\ncensus_window = [7, 5]\n')
+    file_cfg = load_config(path)
+    merged = merge_config(file_cfg, {"seed": 7, "conf": None}, {"cost": "sad"})
+    assert merged["conf"] == 0.2 and merged["seed"] == 7 and merged["classes"] == ["car"]
+    assert merged["matcher"] == {"num_disparities": 64, "census_window": (7, 5), "cost": "sad"}
+    assert merged["box_shrink"] == RUN_DEFAULTS["box_shrink"][0]
+    path.write_text(dump_config(merged))
+    again = merge_config(load_config(path), {}, {})
+    assert again == merged
