@@ -74,7 +74,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument("--no-png", action="store_true", help="do not write the colourised PNG")
     group = parser.add_argument_group("matcher parameters (see the README's parameter table)")
     group.add_argument("--cost", choices=("census", "sad"), default=defaults.cost,
-                       help="matching cost: census (robust to exposure differences) or sad (the paper's); default %(default)s")
+                       help="matching cost: census (robust to exposure differences) or sad (the paper's); "
+                            "default %(default)s")
     for option, name, kind, text in _PARAM_OPTIONS:
         default = getattr(defaults, name)
         suffix = " (default: %(default)s)" if default is not None else ""
@@ -85,7 +86,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     group.add_argument("--lr-check", type=_lr_check, default=defaults.lr_check, metavar="PX|off",
                        help="largest left-right disparity difference, px, or 'off' (default: off; 1 for fewer, more "
                             "reliable pixels)")
-    group.add_argument("--paths", type=int, choices=(4, 8), default=defaults.paths, help="aggregation directions (default: %(default)s)")
+    group.add_argument("--paths", type=int, choices=(4, 8), default=defaults.paths,
+                       help="aggregation directions (default: %(default)s)")
     group.add_argument("--adaptive-p2", action="store_true", help="divide P2 by the intensity gradient")
     group.add_argument("--no-subpixel", dest="subpixel", action="store_false", help="integer disparities only")
     group.add_argument("--fill-holes", action="store_true",

@@ -319,7 +319,8 @@ def _check_memory(shape: tuple[int, ...], dtype: Any, params: SGMParams) -> int:
         height, width = shape[0], shape[1]
         raise MemoryBudgetError(
             f"matching {width} x {height} px with num_disparities={params.num_disparities} needs about "
-            f"{need / _GiB:.2f} GiB ({need} bytes), above the memory limit of {limit / _GiB:.2f} GiB ({limit} bytes); use a smaller disparity "
+            f"{need / _GiB:.2f} GiB ({need} bytes), above the memory limit of {limit / _GiB:.2f} GiB "
+            f"({limit} bytes); use a smaller disparity "
             f"range (num_disparities) or downscale the images (e.g. cv2.resize by 0.5 and halve the range), "
             f"or raise `memory_limit` / $STEREO_CLASSIC_MEMORY_LIMIT")
     return need

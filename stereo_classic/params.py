@@ -225,8 +225,8 @@ class SGMParams:
                 normalise(field, int(value))
         p1, p2 = self.effective_p1, self.effective_p2
         if p2 <= p1:
-            raise ValueError(f"`p2` must be larger than `p1`, got p1={p1} and p2={p2}"
-                             + (" (None means the default for this cost)" if self.p1 is None or self.p2 is None else ""))
+            note = " (None means the default for this cost)" if self.p1 is None or self.p2 is None else ""
+            raise ValueError(f"`p2` must be larger than `p1`, got p1={p1} and p2={p2}{note}")
         _kernel_penalty_check(self.cost, self.block_size, self.census_window, p1, p2)
         for field in ("adaptive_p2", "subpixel", "fill_holes"):
             value = getattr(self, field)

@@ -120,7 +120,8 @@ class TestParams:
         monkeypatch.delenv(MEMORY_LIMIT_ENV)
         assert default_memory_limit() > 100 * 1024**2  # half of this machine's RAM
 
-    @pytest.mark.parametrize("text, expected", [("4096", 4096), ("1k", 1024), ("1.5 GiB", 3 * 2**29), ("2MB", 2 * 2**20)])
+    @pytest.mark.parametrize("text, expected",
+                             [("4096", 4096), ("1k", 1024), ("1.5 GiB", 3 * 2**29), ("2MB", 2 * 2**20)])
     def test_parse_bytes(self, text, expected):
         assert parse_bytes(text) == expected
 
@@ -350,7 +351,8 @@ class TestErrors:
 
     def test_range_wider_than_image(self, pair):
         left, right = pair
-        with pytest.raises(StereoInputError, match=r"`num_disparities` \(128\) must not be larger than the image width \(96\)"):
+        with pytest.raises(StereoInputError,
+                           match=r"`num_disparities` \(128\) must not be larger than the image width \(96\)"):
             compute_disparity(left, right, num_disparities=128)
         with pytest.raises(StereoInputError, match=r"disparity range .*\(40\.\.103\)"):
             compute_disparity(left, right, min_disparity=40, num_disparities=64)
@@ -364,7 +366,8 @@ class TestErrors:
         with pytest.raises(ValueError, match=f"`{field}`"):
             compute_disparity(*pair, **kwargs)
 
-    @pytest.mark.parametrize("kwargs", [dict(p1=10, p2=30000), dict(p1=10, p2=1400), dict(census_window=(3, 3), p2=1500)])
+    @pytest.mark.parametrize("kwargs",
+                             [dict(p1=10, p2=30000), dict(p1=10, p2=1400), dict(census_window=(3, 3), p2=1500)])
     def test_penalty_beyond_int16_sums(self, pair, kwargs):
         with pytest.raises(ValueError, match="`p2` too large"):
             SGMParams(**kwargs)
@@ -393,7 +396,8 @@ class TestErrors:
     def test_memory_budget_large_image_message(self):
         # A 8K x 4K pair with 1024 disparities: refused from the shape alone, nothing allocated.
         big = np.lib.stride_tricks.as_strided(np.zeros(1, np.uint8), shape=(4320, 7680), strides=(0, 0))
-        with pytest.raises(MemoryBudgetError, match=r"7680 x 4320 px with num_disparities=1024 needs about \d+\.\d\d GiB"):
+        with pytest.raises(MemoryBudgetError,
+                           match=r"7680 x 4320 px with num_disparities=1024 needs about \d+\.\d\d GiB"):
             compute_disparity(big, big, num_disparities=1024, memory_limit=2 * 1024**3)
 
 

@@ -2,22 +2,12 @@
 
 from __future__ import annotations
 
-import importlib
-import types
-
 import cv2
 import numpy as np
 import pytest
 
 from stereo_classic import matcher as matcher_mod
 from stereo_classic.cli import main
-
-def _core_ready() -> bool:
-    try:
-        core = importlib.import_module("stereo_classic._sgm_core")
-    except ImportError:
-        return False
-    return all(hasattr(core, name) for name in ("sgm_match", "memory_bytes"))
 
 
 @pytest.fixture
