@@ -206,3 +206,65 @@ def test_merge_precedence_and_dump_round_trip(tmp_path):
     path.write_text(dump_config(merged))
     again = merge_config(load_config(path), {}, {})
     assert again == merged
+
+
+# --- property test: any pair gives a well-formed result or a ValueError naming what is wrong --------------
+
+from hypothesis import HealthCheck, event, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@st.composite
+def _pairs(draw):
+    h = draw(st.integers(1, 48))
+    w = draw(st.integers(1, 64))
+    dtype = draw(st.sampled_from([np.uint8, np.uint16, np.float32]))
+    channels = draw(st.sampled_from([None, 3]))
+    kind = draw(st.sampled_from(["noise", "const", "black", "nan", "repetitive"]))
+    rng = np.random.default_rng(draw(st.integers(0, 1000)))
+    shape = (h, w) if channels is None else (h, w, channels)
+    if kind == "noise":
+        left = rng.uniform(0, 255, shape)
+    elif kind == "const":
+        left = np.full(shape, 77.0)
+    elif kind == "black":
+        left = np.zeros(shape)
+    elif kind == "repetitive":
+        left = np.broadcast_to((np.arange(w) % 4 * 60.0).reshape((1, w) + (1,) * (len(shape) - 2)), shape).copy()
+    else:
+        left = rng.uniform(0, 255, shape)
+        left.reshape(-1)[:: max(1, left.size // 3)] = np.nan
+    right = np.roll(left, -draw(st.integers(0, 5)), axis=1)
+    boxes = [[draw(st.floats(-10, 70)), draw(st.floats(-10, 50)), 0, 0] for _ in range(draw(st.integers(0, 3)))]
+    for b in boxes:
+        b[2], b[3] = b[0] + draw(st.floats(0, 60)), b[1] + draw(st.floats(0, 40))
+    if dtype != np.float32:
+        left, right = np.nan_to_num(left).astype(dtype), np.nan_to_num(right).astype(dtype)
+    else:
+        left, right = left.astype(np.float32), right.astype(np.float32)
+    return left, right, boxes, draw(st.integers(1, 40))
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(_pairs())
+def test_property_localizer_well_formed_or_value_error(case):
+    from stereo_classic.fusion import STATUSES
+
+    left, right, boxes, ndisp = case
+    h, w = left.shape[:2]
+    det = _Boxes(boxes) if boxes else None
+    try:
+        loc = Localizer(_rig(w, h), det, {"num_disparities": ndisp, "threads": 1})
+        result = loc(left, right)
+    except ValueError as exc:
+        assert str(exc) and "\n" not in str(exc)
+        event("ValueError")
+        return
+    event("result")
+    assert result.disparity.disparity.shape == (h, w)
+    assert len(result.objects) == len(boxes)
+    for i, status in enumerate(result.objects.status):
+        assert status in STATUSES
+        if status == "ok":
+            assert 0.3 <= result.objects.distance_m[i] <= 80.0
+    json.dumps(result.objects.to_json(), allow_nan=False)
