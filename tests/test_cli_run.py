@@ -332,3 +332,26 @@ def test_dataset_folder_with_max_frames_and_scale(tmp_path, shared_data, capsys)
     assert len(records) == 2 and all(r["image_size"] == [320, 240] for r in records)
     for r in records:
         _check_outputs(out, r["frame"], (240, 320), kinds=EVERY_KIND[:5])
+
+
+def test_raw_pair_needs_rectify_and_is_rectified(tmp_path, capsys):
+    from calib import StereoRig
+    from stereo_classic import io
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    lp, rp = _write_pair(folder, "raw")
+    K = np.array([[700.0, 0, 119.5], [0, 700.0, 79.5], [0, 0, 1]])
+    rig = StereoRig(K_left=K, dist_left=np.zeros(5), K_right=K, dist_right=np.zeros(5), R=np.eye(3),
+                    T=np.array([-0.12, 0.0, 0.0]), image_size=(240, 160))
+    calib_file = tmp_path / "stereo.yaml"
+    rig.to_opencv_yaml(calib_file)
+    argv = ["run", "--left", str(lp), "--right", str(rp), "--calib", str(calib_file), "--model", "none",
+            "--num-disparities", "48", "-o", str(tmp_path / "o")]
+    assert main(argv) == 2
+    assert "--rectify" in capsys.readouterr().err
+    assert main(argv + ["--rectify"]) == 0
+    pfm = io.read_pfm(tmp_path / "o" / "raw_L_disparity.pfm")
+    assert pfm.shape == (160, 240)
+    # The wall at 8 m: f B / Z = 700 * 0.12 / 8 = 10.5 px, unchanged by rectifying an ideal rig.
+    assert np.nanmedian(pfm[:, 100:]) == pytest.approx(10.5, abs=0.5)
