@@ -15,12 +15,17 @@ import numpy as np
 from calib.errors import CalibrationError
 from calib.geometry import check_finite, depth_from_disparity, points_from_disparity
 
-__all__ = ["RectifiedRig", "RectificationWarning", "check_image_size"]
+__all__ = ["RectifiedRig", "RectificationWarning", "check_image_size", "FOCAL_RANGE_PX", "BASELINE_RANGE_M"]
 
 log = logging.getLogger(__name__)
 
 #: Above this median vertical offset (pixels) `rectify_pair` warns.
 VERTICAL_OFFSET_WARN_PX = 1.0
+
+
+#: Plausible ranges; values outside them are refused (they make Q overflow or are unit mistakes).
+FOCAL_RANGE_PX = (1e-3, 1e8)
+BASELINE_RANGE_M = (1e-6, 1e4)
 
 
 class RectificationWarning(UserWarning):
@@ -117,6 +122,10 @@ class RectifiedRig:
 
         object.__setattr__(self, "focal_px", _num("focal_px", positive=True))
         object.__setattr__(self, "baseline_m", _num("baseline_m", positive=True))
+        for name, (lo, hi), unit in (("focal_px", FOCAL_RANGE_PX, "px"), ("baseline_m", BASELINE_RANGE_M, "m")):
+            value = getattr(self, name)
+            if not lo <= value <= hi:
+                raise CalibrationError(f"`{name}` = {value!r} {unit} is outside the plausible range [{lo:g}, {hi:g}] {unit}")
         for name in ("cx_left", "cx_right", "cy"):
             object.__setattr__(self, name, _num(name))
         size = check_image_size("image_size", self.image_size)

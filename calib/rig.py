@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 
 from calib.errors import CalibrationError
-from calib.rectified import RectifiedRig, check_image_size
+from calib.rectified import BASELINE_RANGE_M, FOCAL_RANGE_PX, RectifiedRig, check_image_size
 
 __all__ = ["StereoRig"]
 
@@ -39,6 +39,9 @@ def _camera_matrix(name: str, value: Any) -> np.ndarray:
     k = _matrix(name, value, (3, 3))
     if not (k[0, 0] > 0 and k[1, 1] > 0):
         raise CalibrationError(f"`{name}` focal lengths fx={k[0, 0]!r}, fy={k[1, 1]!r} must be > 0")
+    lo, hi = FOCAL_RANGE_PX
+    if not (lo <= k[0, 0] <= hi and lo <= k[1, 1] <= hi):
+        raise CalibrationError(f"`{name}` focal lengths fx={k[0, 0]:g}, fy={k[1, 1]:g} are outside the plausible range [{lo:g}, {hi:g}] px")
     if abs(k[1, 0]) > 1e-9 or abs(k[2, 0]) > 1e-9 or abs(k[2, 1]) > 1e-9 or abs(k[2, 2] - 1.0) > 1e-9:
         raise CalibrationError(f"`{name}` must be a camera matrix [[fx, s, cx], [0, fy, cy], [0, 0, 1]], got {k.tolist()}")
     return k
@@ -109,6 +112,9 @@ class StereoRig:
         t = _matrix("T", self.T, (3,))
         if not np.linalg.norm(t) > 0:
             raise CalibrationError("`T` must not be zero: the cameras need a baseline")
+        lo, hi = BASELINE_RANGE_M
+        if not lo <= np.linalg.norm(t) <= hi:
+            raise CalibrationError(f"`T` has length {np.linalg.norm(t):g} m, outside the plausible range [{lo:g}, {hi:g}] m")
         object.__setattr__(self, "T", t)
         object.__setattr__(self, "image_size", check_image_size("image_size", self.image_size))
         if self.baseline_m > 10.0:

@@ -482,3 +482,35 @@ def test_property_truncated_or_damaged_files(tmp_path, cut, junk):
         assert str(path) in str(exc)
     else:
         assert rig == RIG  # a cut in the trailing whitespace still reads the full rig
+
+
+num = st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=32), st.integers(-10**6, 10**6))
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(f=num, cx=num, baseline=num, doffs=num, width=num)
+def test_property_middlebury_values_valid_or_named_error(tmp_path, f, cx, baseline, doffs, width):
+    path = tmp_path / "calib.txt"
+    path.write_text(f"cam0=[{f} 0 {cx}; 0 {f} 200; 0 0 1]\ncam1=[{f} 0 {cx}; 0 {f} 200; 0 0 1]\n"
+                    f"doffs={doffs}\nbaseline={baseline}\nwidth={width}\nheight=400\n")
+    try:
+        rig = RectifiedRig.from_middlebury(path)
+    except CalibrationError as exc:
+        assert str(path) in str(exc)
+    else:
+        assert rig.focal_px > 0 and rig.baseline_m > 0 and np.isfinite(rig.doffs) and rig.image_size[0] > 0
+        assert rig.baseline_m == pytest.approx(float(baseline) / 1000.0)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(fx=num, cx0=num, baseline=num, width=num)
+def test_property_oakd_values_valid_or_named_error(tmp_path, fx, cx0, baseline, width):
+    path = tmp_path / "calib.json"
+    data = OAKD | {"fx": fx, "cx0": cx0, "baseline_meters": baseline, "width": width}
+    path.write_text(json.dumps(data))  # NaN/inf become the non-standard NaN/Infinity tokens json accepts
+    try:
+        rig = RectifiedRig.from_oakd_json(path)
+    except CalibrationError as exc:
+        assert str(path) in str(exc)
+    else:
+        assert rig.focal_px > 0 and rig.baseline_m > 0 and np.isfinite([rig.cx_left, rig.doffs]).all()

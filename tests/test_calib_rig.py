@@ -57,6 +57,8 @@ class TestStereoRig:
             ({"R": np.eye(3) * 2}, "`R` must be a rotation"),
             ({"R": np.diag([1.0, 1.0, -1.0])}, "`R` must be a rotation"),
             ({"T": [0.0, 0.0, 0.0]}, "`T` must not be zero"),
+            ({"T": [-1e-9, 0.0, 0.0]}, "`T`.*plausible range"),
+            ({"K_left": [[1e12, 0, 320], [0, 1e12, 240], [0, 0, 1]]}, "K_left.*plausible range"),
             ({"T": [0.1, 0.2]}, "`T`.*shape"),
             ({"T": ["a", "b", "c"]}, "`T`"),
             ({"image_size": (640, 0)}, "image_size"),
@@ -147,6 +149,8 @@ class TestRectifiedRig:
             ({"image_size": (True, 10)}, "image_size"),
             ({"maps_left": (np.zeros((2, 2)), None)}, "maps_left.*maps_right"),
             ({"roi_left": (0, 0, -1, 5)}, "roi_left"),
+            ({"baseline_m": 1e-300}, "baseline_m.*plausible range"),
+            ({"focal_px": 1e300}, "focal_px.*plausible range"),
         ],
     )
     def test_errors(self, overrides, match):
