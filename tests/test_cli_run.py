@@ -272,14 +272,17 @@ def _bad_cases(tmp_path: Path) -> dict[str, tuple[list[str], int, str]]:
         "two inputs": (base + ["--left", str(lp), "--right", str(rp), "--dataset", str(folder)], 2, "choose one input"),
         "bad save": (base + ["--save", "boxes,nonsense"], 2, "nonsense"),
         "bad matcher value": (base + ["--cost", "ssd"], 2, "cost"),
-        "bad fusion value": (base + ["--box-shrink", "1.5"], 1, "box_shrink"),
+        "bad fusion value": (base + ["--box-shrink", "1.5"], 2, "box_shrink"),
+        "bad depth range": (base + ["--depth-range", "5", "1"], 2, "depth_range"),
+        "bad confidence": (base + ["--conf", "1.5"], 2, "--conf"),
         "missing config": (base + ["--config", str(tmp_path / "none.toml")], 2, "none.toml"),
     }
 
 
 @pytest.mark.parametrize("case", ["mismatched sizes", "unreadable file", "missing file", "calibration size", "empty glob",
                                   "camera", "left without right", "no calib", "two inputs", "bad save",
-                                  "bad matcher value", "bad fusion value", "missing config"])
+                                  "bad matcher value", "bad fusion value", "bad depth range", "bad confidence",
+                                  "missing config"])
 def test_bad_input_one_line_right_code_nothing_written(tmp_path, capsys, case):
     argv, code, needle = _bad_cases(tmp_path)[case]
     out = tmp_path / "out"
