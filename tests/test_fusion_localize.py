@@ -382,3 +382,17 @@ def test_grow_density_merges_a_slanted_surface():
     grown = localize(box, d, rig, box_shrink=0.0, centre_sigma=0, grow_density=0.2)
     assert grown.inliers[0] >= 0.98 * d.size and plain.inliers[0] < d.size / 5
     assert grown.distance_m[0] == pytest.approx(z.mean(), rel=0.01)
+
+
+def test_xyz_matches_calib_rectified_rig_points_with_doffs():
+    """The centroid uses the same geometry as calib.RectifiedRig.points (doffs and principal point included)."""
+    from calib import RectifiedRig
+
+    rig = RectifiedRig(focal_px=900.0, cx_left=50.0, cx_right=81.0, cy=35.0, baseline_m=0.2, image_size=(120, 80))
+    rng = np.random.default_rng(9)
+    d = (40.0 + rng.normal(0, 0.2, (80, 120))).astype(np.float32)
+    objs = localize(np.array([[10, 10, 110, 70]]), d, rig, box_shrink=0.0, tolerance_px=50.0, centre_sigma=0,
+                    depth_range=(0.1, 100.0))
+    pts = rig.points(d)[10:70, 10:110].reshape(-1, 3)
+    np.testing.assert_allclose(objs.xyz[0], pts.mean(axis=0), rtol=1e-5)
+    assert objs.distance_m[0] == pytest.approx(900 * 0.2 / (40.0 + 31.0), rel=1e-3)
