@@ -24,10 +24,10 @@ import argparse
 import json
 import logging
 import math
+import os
 import signal
 import sys
 import threading
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -73,48 +73,64 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                     "built-in demo scene (Middlebury Motorcycle) is used. Options may also come from "
                     "--config FILE.toml (flags win).")
     src = p.add_argument_group("input (one kind; none = the demo scene)")
-    src.add_argument("--left", nargs="+", metavar="PATH", help="left image(s) or glob pattern(s), paired in order with --right")
+    src.add_argument("--left", nargs="+", metavar="PATH",
+                     help="left image(s) or glob pattern(s), paired in order with --right")
     src.add_argument("--right", nargs="+", metavar="PATH", help="right image(s) or glob pattern(s)")
     src.add_argument("--calib", metavar="FILE", help="calibration (OpenCV YAML/XML, KITTI, Middlebury calib.txt, ...)")
     src.add_argument("--rectify", action="store_true", help="the images are raw: rectify them with --calib")
     src.add_argument("--dataset", metavar="DIR", help="a dataset folder (Middlebury, KITTI, ...): every scene below it")
-    src.add_argument("--video", metavar="FILE", help="a side-by-side stereo video (left half = left image); needs --calib")
+    src.add_argument("--video", metavar="FILE",
+                     help="a side-by-side stereo video (left half = left image); needs --calib")
     src.add_argument("--camera", type=int, metavar="N", help="live side-by-side stereo camera N; needs --calib")
     src.add_argument("--max-frames", type=int, default=None, metavar="N", help="stop after N frames (0 = all)")
-    src.add_argument("--scale", type=float, default=None, metavar="F", help="resize the images by F (e.g. 0.5) before matching")
+    src.add_argument("--scale", type=float, default=None, metavar="F",
+                     help="resize the images by F (e.g. 0.5) before matching")
 
     out = p.add_argument_group("output")
     out.add_argument("-o", "--output", default=None, metavar="DIR", help="output folder (default: stereo_out)")
     out.add_argument("--save", default=None, metavar="LIST",
                      help=f"comma-separated outputs among {','.join(k for k in SAVE_KINDS if k != 'ply')} "
                           "(default: all of them)")
-    out.add_argument("--ply", action=argparse.BooleanOptionalAction, default=None, help="also write a coloured PLY point cloud")
+    out.add_argument("--ply", action=argparse.BooleanOptionalAction, default=None,
+                     help="also write a coloured PLY point cloud")
     out.add_argument("--resume", action="store_true", help="skip frames whose outputs are all present")
-    out.add_argument("--no-progress", action="store_true", help="no progress bar (it is off anyway when stderr is not a terminal)")
+    out.add_argument("--no-progress", action="store_true",
+                     help="no progress bar (it is off anyway when stderr is not a terminal)")
 
     det = p.add_argument_group("detector")
-    det.add_argument("--model", default=None, metavar="NAME|PATH", help="ONNX detector name or path, or 'none' (default: yolox_nano)")
+    det.add_argument("--model", default=None, metavar="NAME|PATH",
+                     help="ONNX detector name or path, or 'none' (default: yolox_nano)")
     det.add_argument("--conf", type=float, default=None, help="confidence threshold (default 0.3)")
     det.add_argument("--iou", type=float, default=None, help="NMS IoU threshold (default 0.45)")
-    det.add_argument("--classes", default=None, metavar="LIST", help="comma-separated class names to keep (e.g. car,person)")
+    det.add_argument("--classes", default=None, metavar="LIST",
+                     help="comma-separated class names to keep (e.g. car,person)")
 
     fus = p.add_argument_group("fusion")
     fus.add_argument("--method", choices=("ransac", "median"), default=None, help="distance per box (default ransac)")
-    fus.add_argument("--box-shrink", type=float, default=None, metavar="F", help="fraction of box width/height left out at the edges (default 0.2)")
-    fus.add_argument("--depth-range", type=float, nargs=2, default=None, metavar=("NEAR", "FAR"), help="metres (default 0.3 80)")
-    fus.add_argument("--min-pixels", type=int, default=None, metavar="N", help="fewest depth pixels per box (default 20)")
-    fus.add_argument("--tolerance-px", type=float, default=None, metavar="PX", help="RANSAC inlier band in disparity px (default 1)")
-    fus.add_argument("--near-support", type=float, default=None, metavar="F", help="a nearer set wins at this fraction of the largest one's support (default 0.5)")
-    fus.add_argument("--centre-sigma", type=float, default=None, metavar="F", help="centre weighting of votes, fraction of the box (default 0.25, 0 = off)")
-    fus.add_argument("--grow-density", type=float, default=None, metavar="F", help="grow the set over continuous depths (default 0.1, 0 = off)")
+    fus.add_argument("--box-shrink", type=float, default=None, metavar="F",
+                     help="fraction of box width/height left out at the edges (default 0.2)")
+    fus.add_argument("--depth-range", type=float, nargs=2, default=None, metavar=("NEAR", "FAR"),
+                     help="metres (default 0.3 80)")
+    fus.add_argument("--min-pixels", type=int, default=None, metavar="N",
+                     help="fewest depth pixels per box (default 20)")
+    fus.add_argument("--tolerance-px", type=float, default=None, metavar="PX",
+                     help="RANSAC inlier band in disparity px (default 1)")
+    fus.add_argument("--near-support", type=float, default=None, metavar="F",
+                     help="a nearer set wins at this fraction of the largest one's support (default 0.5)")
+    fus.add_argument("--centre-sigma", type=float, default=None, metavar="F",
+                     help="centre weighting of votes, fraction of the box (default 0.25, 0 = off)")
+    fus.add_argument("--grow-density", type=float, default=None, metavar="F",
+                     help="grow the set over continuous depths (default 0.1, 0 = off)")
     fus.add_argument("--seed", type=int, default=None, help="RANSAC seed (default 0)")
 
     mat = p.add_argument_group("matcher")
     for flag, name, kind, text in _MATCHER_OPTIONS:
-        mat.add_argument(flag, dest=f"matcher_{name}", type=kind, default=None, help=text)
+        metavar = {"cost": "census|sad", "uniqueness": "PCT", "lr_check": "PX"}.get(name, "N")
+        mat.add_argument(flag, dest=f"matcher_{name}", type=kind, default=None, metavar=metavar, help=text)
 
     run = p.add_argument_group("run")
-    run.add_argument("--threads", type=int, default=None, metavar="N", help="threads for the matcher and the detector (default: all)")
+    run.add_argument("--threads", type=int, default=None, metavar="N",
+                     help="threads for the matcher and the detector (default: all)")
     run.add_argument("--concurrent", action=argparse.BooleanOptionalAction, default=None,
                      help="run the detector in a thread beside the matcher (default off: not faster on 2 cores)")
     run.add_argument("--config", metavar="FILE.toml", help="read options from a TOML file (flags win)")
@@ -387,8 +403,6 @@ class _JsonlSink:
         with open(self.path, "a", encoding="utf-8", newline="\n") as f:
             f.write(line + "\n")
             f.flush()
-            import os
-
             os.fsync(f.fileno())
         self.done.add(str(record["frame"]))
 
@@ -443,7 +457,6 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: A
     timings: list[dict[str, float]] = []
     n_objects = n_done = n_skipped = 0
     quiet = getattr(args, "quiet", False)
-    skip_log: Callable[[str], bool]
 
     def skip(name: str) -> bool:
         nonlocal n_skipped
@@ -452,20 +465,20 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: A
             return True
         return False
 
-    skip_log = skip
     total = len(source) or None
     bar = tqdm(total=total, unit="frame", file=sys.stderr, leave=False,
                disable=quiet or args.no_progress or not sys.stderr.isatty())
     interrupted = False
     try:
-        for frame in source.frames(skip_log):
+        for frame in source.frames(skip):
             rig = original_rig = frame.rig if frame.rig is not None else base_rig
             if rig is None:
                 raise ValueError(f"frame {frame.name}: no calibration")
             key = id(rig)
             if key not in localizers:
                 if cfg["scale"] != 1.0:
-                    rig = rig.without_maps().scaled(cfg["scale"]) if getattr(rig, "has_maps", False) else rig.scaled(cfg["scale"])
+                    base = rig.without_maps() if getattr(rig, "has_maps", False) else rig
+                    rig = base.scaled(cfg["scale"])
                 localizers[key] = (rig, Localizer(
                     rig, detector, _matcher_params(cfg, frame.max_disparity), method=cfg["method"],
                     box_shrink=cfg["box_shrink"], depth_range=tuple(cfg["depth_range"]), min_pixels=cfg["min_pixels"],

@@ -380,7 +380,8 @@ def _boxes_and_meta(detections: Any) -> tuple[np.ndarray, tuple[str, ...], np.nd
     for attr in ("xyxy", "confidence", "class_id"):
         if not hasattr(detections, attr):
             raise FusionInputError(
-                f"`detections` must be a detectors.Detections or an (N, 4) array of boxes, got {type(detections).__name__}")
+                "`detections` must be a detectors.Detections or an (N, 4) array of boxes, got "
+                f"{type(detections).__name__}")
     xyxy = np.asarray(detections.xyxy, dtype=np.float64).reshape(-1, 4)
     n = xyxy.shape[0]
     labels = getattr(detections, "labels", None)
@@ -530,7 +531,8 @@ def localize(
     try:
         near, far = (float(v) for v in depth_range)
     except (TypeError, ValueError):
-        raise FusionInputError(f"`depth_range` must be two numbers (near, far) in metres, got {depth_range!r}") from None
+        raise FusionInputError(
+            f"`depth_range` must be two numbers (near, far) in metres, got {depth_range!r}") from None
     if not (math.isfinite(near) and math.isfinite(far) and 0.0 <= near < far):
         raise FusionInputError(f"`depth_range` must satisfy 0 <= near < far (finite metres), got {depth_range!r}")
     for name, value in (("min_pixels", min_pixels), ("max_clusters", max_clusters), ("max_iterations", max_iterations),
@@ -544,7 +546,8 @@ def localize(
         disp = np.asarray(disp_src)
     except (TypeError, ValueError) as exc:
         raise FusionInputError(f"`disparity_map` must be a DisparityMap or an (H, W) array: {exc}") from None
-    if disp.ndim != 2 or disp.size == 0 or not (np.issubdtype(disp.dtype, np.floating) or np.issubdtype(disp.dtype, np.integer)):
+    real = np.issubdtype(disp.dtype, np.floating) or np.issubdtype(disp.dtype, np.integer)
+    if disp.ndim != 2 or disp.size == 0 or not real:
         raise FusionInputError(
             f"`disparity_map` must be a non-empty (H, W) real array, got shape {disp.shape} dtype {disp.dtype}")
     height, width = disp.shape

@@ -167,7 +167,8 @@ class Localizer:
         size = tuple(int(s) for s in (self.rig.raw_image_size if raw else self.rig.image_size))
         if size != (left.shape[1], left.shape[0]):
             raise ValueError(f"the calibration is for {size[0]}x{size[1]}{' raw' if raw else ''} images but the "
-                             f"images are {left.shape[1]}x{left.shape[0]}; use rig.scaled() or the matching calibration")
+                             f"images are {left.shape[1]}x{left.shape[0]}; use rig.scaled() or the matching "
+                             "calibration")
 
     def __call__(self, left: np.ndarray, right: np.ndarray) -> PipelineResult:
         """Run the pipeline on one pair (raw when the rig has rectification maps, else rectified)."""
@@ -175,7 +176,8 @@ class Localizer:
         self._check_size(left, right)
         if hasattr(self.rig, "rectify_pair"):
             # The vertical-offset check (feature matching) runs on the first frame only.
-            left, right = self.rig.rectify_pair(left, right, check_offset=self._first and getattr(self.rig, "has_maps", False))
+            check = self._first and getattr(self.rig, "has_maps", False)
+            left, right = self.rig.rectify_pair(left, right, check_offset=check)
             self._first = False
         t1 = time.perf_counter()
         future = None

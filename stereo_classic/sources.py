@@ -95,7 +95,8 @@ def _expand(items: Sequence[str | os.PathLike[str]], what: str) -> list[Path]:
     return paths
 
 
-def expand_pairs(left: Sequence[str | os.PathLike[str]], right: Sequence[str | os.PathLike[str]]) -> list[tuple[Path, Path]]:
+def expand_pairs(left: Sequence[str | os.PathLike[str]],
+                 right: Sequence[str | os.PathLike[str]]) -> list[tuple[Path, Path]]:
     """Expand glob patterns (sorted) on both sides and pair them in order.
 
     Raises
@@ -107,7 +108,8 @@ def expand_pairs(left: Sequence[str | os.PathLike[str]], right: Sequence[str | o
     """
     lefts, rights = _expand(left, "--left"), _expand(right, "--right")
     if len(lefts) != len(rights):
-        raise SourceError(f"--left gives {len(lefts)} file(s) but --right gives {len(rights)}; they are paired in order")
+        raise SourceError(f"--left gives {len(lefts)} file(s) but --right gives {len(rights)}; "
+                          "they are paired in order")
     if not lefts:
         raise SourceError("no stereo pairs given (--left/--right are empty)")
     for p in lefts + rights:
