@@ -269,7 +269,13 @@ def _open_detector(cfg: dict[str, Any]) -> tuple[Any, str | None]:
     kwargs: dict[str, Any] = {"conf_threshold": cfg["conf"], "iou_threshold": cfg["iou"]}
     if cfg["threads"] > 0:
         kwargs["threads"] = cfg["threads"]
-    return OnnxDetector(path, **kwargs), Path(path).stem
+    detector = OnnxDetector(path, **kwargs)  # a corrupt model raises ModelError: runtime failure (exit 1)
+    if cfg["classes"]:
+        unknown = [c for c in cfg["classes"] if c not in detector.class_names]
+        if unknown:
+            raise UsageError(f"--classes: unknown class name {unknown[0]!r} for model {Path(path).name}; "
+                             f"valid names: {', '.join(detector.class_names)}")
+    return detector, Path(path).stem
 
 
 # --------------------------------------------------------------------------------------------------

@@ -292,6 +292,19 @@ def test_bad_input_one_line_right_code_nothing_written(tmp_path, capsys, case):
     assert not out.exists() or not any(out.iterdir())
 
 
+def test_unknown_class_name_and_corrupt_model(tmp_path, yolox_nano, capsys):
+    base = ["run", "--scale", "0.25", "-o", str(tmp_path / "out")]
+    assert main(base + ["--model", str(yolox_nano), "--classes", "car,motorbike"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "'motorbike'" in err[0]
+    bad = tmp_path / "bad.onnx"
+    bad.write_bytes(b"not an onnx file")
+    assert main(base + ["--model", str(bad)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error:") and "bad.onnx" in err[0]
+    assert not (tmp_path / "out").exists()
+
+
 def test_verbose_shows_the_traceback(tmp_path, capsys):
     argv, code, _ = _bad_cases(tmp_path)["calibration size"]
     assert main(["-v"] + argv + ["-o", str(tmp_path / "out")]) == code
