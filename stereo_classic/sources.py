@@ -118,6 +118,24 @@ def expand_pairs(left: Sequence[str | os.PathLike[str]],
     return list(zip(lefts, rights))
 
 
+def _quietly(open_capture: Callable[[], Any]) -> Any:
+    """Open a capture with OpenCV's own warnings ("can't open camera by index") silenced: the caller says it
+    in one line. ``-vv`` (debug logging) keeps them."""
+    import logging
+
+    import cv2
+
+    log_api = getattr(getattr(cv2, "utils", None), "logging", None)
+    if log_api is None or logging.getLogger().isEnabledFor(logging.DEBUG):
+        return open_capture()
+    previous = log_api.getLogLevel()
+    log_api.setLogLevel(log_api.LOG_LEVEL_ERROR)
+    try:
+        return open_capture()
+    finally:
+        log_api.setLogLevel(previous)
+
+
 class PairSource:
     """Left/right image files (from :func:`expand_pairs`), read lazily with ``stereo_classic.io.read_image``."""
 
@@ -237,7 +255,7 @@ class SideBySideSource:
         factory = capture_factory or cv2.VideoCapture
         what = f"camera {capture}" if self.is_camera else f"video {capture}"
         self.what = what
-        self.cap = factory(capture if self.is_camera else os.fspath(capture))
+        self.cap = _quietly(lambda: factory(capture if self.is_camera else os.fspath(capture)))
         if self.cap is None or not self.cap.isOpened():
             raise SourceError(f"cannot open {what}" + (" (is it connected and free?)" if self.is_camera else
                                                        " (not a video OpenCV can decode)"))
