@@ -54,9 +54,9 @@ from ._sgm_cost import (
     sad_pixel_cost,
     sad_prefilter,
 )
-from ._sgm_intrinsics import add16, min16, sub16
+from ._sgm_intrinsics import add16, and16, min16, sub16
 
-__all__ = ["sgm_match", "memory_bytes", "cost_volume", "check_penalties", "cost_scale", "ALL_PATHS", "PATH_NAMES"]
+__all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "check_penalties", "cost_scale", "ALL_PATHS", "PATH_NAMES"]
 
 #: Bit i of a path mask selects direction PATH_NAMES[i]. Bits 0-3 run in the forward pass,
 #: bits 4-7 in the backward pass. (dx, dy) is the step from the previous pixel on the path.
@@ -101,38 +101,10 @@ def check_penalties(cost: str, block_size: int, census_window: tuple[int, int], 
 # kernels
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _path_step(C, prev, mp, p1, p2, out, acc):  # pragma: no cover - numba
-    """One pixel of one path: out[1:D+1] = L, acc += L; returns min(L).
-
-    prev/out are (D + 2,) vectors whose ends hold the sentinel (no neighbour at d = -1, D).
-    """
-    D = C.shape[0]
-    pm = prev[0:D]
-    p0 = prev[1:D + 1]
-    pp = prev[2:D + 2]
-    o = out[1:D + 1]
-    base = add16(mp, p2)
-    mn = np.int16(_INT16_MAX)
-    for k in range(D):
-        v = min16(min16(p0[k], add16(min16(pm[k], pp[k]), p1)), base)
-        v = add16(sub16(C[k], mp), v)
-        o[k] = v
-        acc[k] = add16(acc[k], v)
-        mn = min16(mn, v)
-    return mn
+_U = np.uint64  # unsigned flat indices: no wraparound code, contiguous vector loads
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _copy_vec(src, dst):  # pragma: no cover - numba
-    D = src.shape[0] - 2
-    s = src[1:D + 1]
-    d = dst[1:D + 1]
-    for k in range(D):
-        d[k] = s[k]
-
-
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _p2_at(limg, y, x, yp, xp, p1, p2, adaptive):  # pragma: no cover - numba
     """P2, divided by 1 + |I(p) - I(p - r)| when adaptive (never below P1)."""
     if not adaptive:
@@ -146,165 +118,283 @@ def _p2_at(limg, y, x, yp, xp, p1, p2, adaptive):  # pragma: no cover - numba
 
 
 @njit(cache=True, nogil=True)
-def _select_row(Srow, dmin, uniq, lr_thr, subpix, drow, drrow, rv, rd, best):  # pragma: no cover
-    """Resolve one complete row of sums: WTA, uniqueness, subpixel, right view, LR check.
-
-    rv/rd: (W + D - 1,) scratch indexed by q = W - 1 - x + k (the right pixel x - dmin - k).
-    """
-    W, D = Srow.shape
+def _select_pixel(Sf, sb, m, k_lo, k_hi, x, W, dmin, uniq, subpix, rv, rd, forward):  # pragma: no cover
+    """WTA + uniqueness + subpixel for one complete sum vector Sf[sb:sb + D] whose minimum is m
+    (taken over all k: invalid k always sum higher than valid ones). Also updates the right view
+    rv/rd at q = W - 1 - x + k (ties keep the smallest k whatever the x order). Returns (disparity
+    or NaN, best k)."""
     big = np.int16(_INT16_MAX)
-    for q in range(rv.shape[0]):
-        rv[q] = big
-        rd[q] = np.int16(-1)
-    nan = np.float32(np.nan)
-    for x in range(W):
-        k_lo = x - dmin - W + 1
-        if k_lo < 0:
-            k_lo = 0
-        k_hi = x - dmin
-        if k_hi > D - 1:
-            k_hi = D - 1
-        if k_lo > k_hi:
-            best[x] = -1
-            drow[x] = nan
-            continue
-        s = Srow[x]
-        sv = s[k_lo:k_hi + 1]
-        n = k_hi - k_lo + 1
-        m = big
+    n = k_hi - k_lo + 1
+    b0 = sb + k_lo
+    bi = big
+    for i in range(n):
+        bi = min16(bi, np.int16(i) if Sf[_U(b0 + i)] == m else big)
+    b = k_lo + np.int64(bi)
+    q0 = W - 1 - x + k_lo
+    if forward:
         for i in range(n):
-            m = min16(m, sv[i])
-        bi = big
-        for i in range(n):
-            bi = min16(bi, np.int16(i) if sv[i] == m else big)
-        b = k_lo + np.int64(bi)
-        best[x] = b
-        # right view: candidates for right pixel x - dmin - k, ties keep the smallest k
-        q0 = W - 1 - x + k_lo
-        rvs = rv[q0:q0 + n]
-        rds = rd[q0:q0 + n]
-        for i in range(n):
-            v = sv[i]
-            old = rvs[i]
+            v = Sf[_U(b0 + i)]
+            old = rv[_U(q0 + i)]
             lt = v < old
-            rvs[i] = v if lt else old
-            rds[i] = np.int16(k_lo + i) if lt else rds[i]
-        if uniq > 0.0:
-            m2 = big
-            for k in range(k_lo, b - 1):
-                m2 = min16(m2, s[k])
-            for k in range(b + 2, k_hi + 1):
-                m2 = min16(m2, s[k])
-            if m2 < big and np.float64(m2) * (1.0 - uniq) < np.float64(m):
-                drow[x] = nan
-                continue
-        off = 0.0
-        if subpix and b - 1 >= k_lo and b + 1 <= k_hi:
-            sm = np.int64(s[b - 1])
-            sp = np.int64(s[b + 1])
-            den = sm + sp - 2 * np.int64(m)
-            if den > 0:
-                off = (sm - sp) / (2.0 * den)
-        drow[x] = np.float32(dmin + b + off)
-    if lr_thr >= 0.0:
-        for x in range(W):
-            b = best[x]
-            if b < 0 or drow[x] != drow[x]:
-                continue
-            q = W - 1 - x + b
-            if abs(np.float64(b - rd[q])) > lr_thr:
-                drow[x] = nan
-    # right-view disparity of right pixel xr: q = W - 1 - dmin - xr
-    nq = rv.shape[0]
-    for xr in range(W):
-        q = W - 1 - dmin - xr
-        if 0 <= q < nq and rd[q] >= 0:
-            drrow[xr] = np.float32(dmin + rd[q])
-        else:
-            drrow[xr] = nan
+            rv[_U(q0 + i)] = v if lt else old
+            rd[_U(q0 + i)] = np.int16(k_lo + i) if lt else rd[_U(q0 + i)]
+    else:
+        for i in range(n):
+            v = Sf[_U(b0 + i)]
+            old = rv[_U(q0 + i)]
+            le = v <= old
+            rv[_U(q0 + i)] = v if le else old
+            rd[_U(q0 + i)] = np.int16(k_lo + i) if le else rd[_U(q0 + i)]
+    if uniq > 0.0:
+        m2 = big
+        for k in range(k_lo, b - 1):
+            m2 = min16(m2, Sf[_U(sb + k)])
+        for k in range(b + 2, k_hi + 1):
+            m2 = min16(m2, Sf[_U(sb + k)])
+        if m2 < big and np.float64(m2) * (1.0 - uniq) < np.float64(m):
+            return np.float32(np.nan), b
+    off = 0.0
+    if subpix and b - 1 >= k_lo and b + 1 <= k_hi:
+        sm = np.int64(Sf[_U(sb + b - 1)])
+        sp = np.int64(Sf[_U(sb + b + 1)])
+        den = sm + sp - 2 * np.int64(m)
+        if den > 0:
+            off = (sm - sp) / (2.0 * den)
+    return np.float32(dmin + b + off), b
+
+
+@njit(cache=True, nogil=True)
+def _lr(P, rb, c, m, q, p1, k):  # pragma: no cover - numba
+    """New path value at disparity k from the previous vector at P[rb:rb + D + 2] (min m, m + P2 = q)."""
+    return add16(sub16(c, m), min16(min16(P[_U(rb + 1 + k)], add16(min16(P[_U(rb + k)], P[_U(rb + 2 + k)]), p1)), q))
+
+
+@njit(cache=True, nogil=True)
+def _agg4(C, PH, PV, PA, PB, Sf, sb, dst, db, wh, wv, wa, wb, mh, mv, ma, mb, qh, qv, qa, qb,
+          p1, mk0, mk1, mk2, mk3, D, accumulate):  # pragma: no cover - numba
+    """The 4 paths of one pass at one pixel, in one vectorised loop over the disparities.
+
+    Each path writes its new vector at (array, write base) and reads the previous one from the next
+    slot of the same array (see sgm_pass); the horizontal path alternates between slots 0 and 1.
+    (At most 30 arguments: beyond that CPython passes *args, which numba cannot inline.) The (masked) sum of the 4 new
+    vectors is stored into Sf[sb:sb + D], or, when accumulating, added to it and written to
+    dst[db:db + D] (Sf itself, or a scratch vector when the complete sums need not be kept).
+    Returns the 4 new minima and the minimum of the complete sum (only when accumulating).
+    """
+    E = D + 2
+    rh = E - wh
+    rv = wv + E
+    ra = wa + E
+    rb = wb + E
+    nh = np.int16(_INT16_MAX)
+    nv = nh
+    na = nh
+    nb = nh
+    ns = nh
+    if accumulate:
+        for k in range(D):
+            c = C[k]
+            vh = _lr(PH, rh, c, mh, qh, p1, k)
+            vv = _lr(PV, rv, c, mv, qv, p1, k)
+            va = _lr(PA, ra, c, ma, qa, p1, k)
+            vb = _lr(PB, rb, c, mb, qb, p1, k)
+            PH[_U(wh + 1 + k)] = vh
+            PV[_U(wv + 1 + k)] = vv
+            PA[_U(wa + 1 + k)] = va
+            PB[_U(wb + 1 + k)] = vb
+            nh = min16(nh, vh)
+            nv = min16(nv, vv)
+            na = min16(na, va)
+            nb = min16(nb, vb)
+            sm = add16(add16(add16(and16(vh, mk0), and16(vv, mk1)), add16(and16(va, mk2), and16(vb, mk3))), Sf[_U(sb + k)])
+            dst[_U(db + k)] = sm
+            ns = min16(ns, sm)
+    else:
+        for k in range(D):
+            c = C[k]
+            vh = _lr(PH, rh, c, mh, qh, p1, k)
+            vv = _lr(PV, rv, c, mv, qv, p1, k)
+            va = _lr(PA, ra, c, ma, qa, p1, k)
+            vb = _lr(PB, rb, c, mb, qb, p1, k)
+            PH[_U(wh + 1 + k)] = vh
+            PV[_U(wv + 1 + k)] = vv
+            PA[_U(wa + 1 + k)] = va
+            PB[_U(wb + 1 + k)] = vb
+            nh = min16(nh, vh)
+            nv = min16(nv, vv)
+            na = min16(na, va)
+            nb = min16(nb, vb)
+            Sf[_U(sb + k)] = add16(add16(and16(vh, mk0), and16(vv, mk1)), add16(and16(va, mk2), and16(vb, mk3)))
+    return nh, nv, na, nb, ns
+
+
+@njit(cache=True, nogil=True)
+def _agg2(C, PH, PV, Sf, sb, dst, db, wh, wv, mh, mv, qh, qv, p1, mk0, mk1, D, accumulate):  # pragma: no cover
+    """Like _agg4 for the horizontal and vertical paths only (paths=4)."""
+    E = D + 2
+    rh = E - wh
+    rv = wv + E
+    nh = np.int16(_INT16_MAX)
+    nv = nh
+    ns = nh
+    if accumulate:
+        for k in range(D):
+            c = C[k]
+            vh = _lr(PH, rh, c, mh, qh, p1, k)
+            vv = _lr(PV, rv, c, mv, qv, p1, k)
+            PH[_U(wh + 1 + k)] = vh
+            PV[_U(wv + 1 + k)] = vv
+            nh = min16(nh, vh)
+            nv = min16(nv, vv)
+            sm = add16(add16(and16(vh, mk0), and16(vv, mk1)), Sf[_U(sb + k)])
+            dst[_U(db + k)] = sm
+            ns = min16(ns, sm)
+    else:
+        for k in range(D):
+            c = C[k]
+            vh = _lr(PH, rh, c, mh, qh, p1, k)
+            vv = _lr(PV, rv, c, mv, qv, p1, k)
+            PH[_U(wh + 1 + k)] = vh
+            PV[_U(wv + 1 + k)] = vv
+            nh = min16(nh, vh)
+            nv = min16(nv, vv)
+            Sf[_U(sb + k)] = add16(and16(vh, mk0), and16(vv, mk1))
+    return nh, nv, ns
 
 
 @njit(cache=True, nogil=True)
 def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
-             S, y_first, nrows, step, accumulate, select, init_cost,
-             bufV, minV, bufA, minA, bufB, minB, work,
-             colsum, hsum, rrev, srev, irev,
+             Sf, y_first, nrows, step, accumulate, select, init_cost, keep_sums,
+             PH, PV, PA, PB, MH, MV, MA, MB, C, Ssum, colsum, hsum, rrev, srev, irev,
              dmin, h, shift, cmax, cinv, p1, p2, adaptive, path_mask,
              uniq, lr_thr, subpix, disp, dispR, rv, rd, best):  # pragma: no cover - numba
     """Run the forward (step=+1) or backward (step=-1) 4-path pass over nrows rows from y_first.
 
-    accumulate: add to S instead of storing; select: resolve each row after it is aggregated;
-    init_cost: (SAD) build the column sums from scratch at the first row.
+    Sf: the (H * W * D,) int16 sum volume. accumulate: add to Sf instead of storing (the
+    complete sums go back to Sf only when keep_sums, else to the scratch vector Ssum); select:
+    resolve every pixel as soon as its sum is complete, and the row's right view and LR check at
+    the row end; init_cost: (SAD) build the column sums from scratch at the first row.
+
+    Path vectors: slots of E = D + 2 int16 (sentinels at both ends), minima in MH/MV/MA/MB. In pass
+    coordinates (i = position along the row in processing order, v = rows processed since the
+    pass started at the image edge), the new vector of pixel (v, i) is written at slot w and its
+    predecessor is read at slot w + 1: vertical w = i - v + H, diagonal A (from (v-1, i-1))
+    w = i - 2v + 2H, diagonal B (from (v-1, i+1)) w = i + 1. Each write overwrites a vector the
+    row has already consumed, so no copies and no temporaries are needed; slots never written
+    hold zeros = the path start. Horizontal: two slots, alternating.
+    C: (D,) cost of the current pixel.
     """
-    H, W, D = S.shape
+    H = limg.shape[0]
+    W = limg.shape[1]
+    D = C.shape[0]
+    E = D + 2
     m4 = (path_mask & 15) if step > 0 else ((path_mask >> 4) & 15)
-    C = work[0, 1:D + 1]
-    tmp = work[1]
-    hprev = work[2]
-    hnext = work[3]
-    sent = np.int16(_SENTINEL)
+    four = (m4 & 12) != 0
+    minus1 = np.int16(-1)
     zero = np.int16(0)
+    mk0 = minus1 if m4 & 1 else zero
+    mk1 = minus1 if m4 & 2 else zero
+    mk2 = minus1 if m4 & 4 else zero
+    mk3 = minus1 if m4 & 8 else zero
     p1_16 = np.int16(p1)
     p2_16 = np.int16(p2)
     cinv16 = np.int16(cinv)
+    big = np.int16(_INT16_MAX)
+    nan = np.float32(np.nan)
+    forward = step > 0
+    dst = Sf if keep_sums else Ssum
     for r in range(nrows):
         y = y_first + step * r
+        v = y if forward else H - 1 - y
         # --- per-row cost preparation
         if kind == 0:
-            census_reverse_row(rcode[y], rrev, dmin)
+            census_reverse_row(rcode, y, rrev, dmin)
         else:
             if r == 0 and init_cost:
-                sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h)
+                sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D)
             else:
-                sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h)
-        for k in range(1, D + 1):
-            hprev[k] = zero
-        hprev[0] = sent
-        hprev[D + 1] = sent
-        hnext[0] = sent
-        hnext[D + 1] = sent
-        mh = zero
-        Srow = S[y]
+                sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, D)
+        for k in range(D):
+            PH[k + 1] = zero
+        MH[0] = zero
+        if select:
+            for q in range(rv.shape[0]):
+                rv[q] = big
+                rd[q] = minus1
         for i in range(W):
-            x = i if step > 0 else W - 1 - i
+            x = i if forward else W - 1 - i
             # --- cost of pixel (y, x)
             if kind == 0:
-                census_pixel_cost(lcode[y, x], rrev, x, C)
+                census_pixel_cost(lcode[y, x], rrev, x, W, C, D)
             else:
                 if i == 0:
-                    sad_hsum_init(hsum, colsum, x, h)
+                    sad_hsum_init(hsum, colsum, x, h, D)
                 else:
-                    sad_hsum_advance(hsum, colsum, x, step, h)
-                sad_pixel_cost(hsum, shift, cmax, C)
-            fill_invalid(C, x, W, dmin, cinv16)
-            acc = Srow[x]
-            if not accumulate:
-                for k in range(D):
-                    acc[k] = zero
-            # --- horizontal (from x - step)
-            if m4 & 1:
-                p2e = _p2_at(limg, y, x, y, x - step, p1_16, p2_16, adaptive)
-                mh = _path_step(C, hprev, mh, p1_16, p2e, hnext, acc)
-                hprev, hnext = hnext, hprev
-            # --- vertical (from y - step)
-            if m4 & 2:
-                p2e = _p2_at(limg, y, x, y - step, x, p1_16, p2_16, adaptive)
-                minV[x] = _path_step(C, bufV[x], minV[x], p1_16, p2e, tmp, acc)
-                _copy_vec(tmp, bufV[x])
-            # --- diagonal A (from (y - step, x - step)): slot x - y + H
-            if m4 & 4:
-                s = x - y + H
-                p2e = _p2_at(limg, y, x, y - step, x - step, p1_16, p2_16, adaptive)
-                minA[s] = _path_step(C, bufA[s], minA[s], p1_16, p2e, tmp, acc)
-                _copy_vec(tmp, bufA[s])
-            # --- diagonal B (from (y - step, x + step)): slot x + y + 1
-            if m4 & 8:
-                s = x + y + 1
-                p2e = _p2_at(limg, y, x, y - step, x + step, p1_16, p2_16, adaptive)
-                minB[s] = _path_step(C, bufB[s], minB[s], p1_16, p2e, tmp, acc)
-                _copy_vec(tmp, bufB[s])
+                    sad_hsum_advance(hsum, colsum, x, step, h, D)
+                sad_pixel_cost(hsum, shift, cmax, C, D)
+            k_lo, k_hi = fill_invalid(C, x, W, dmin, cinv16, D)
+            sb = (y * W + x) * D
+            db = sb if keep_sums else 0
+            # --- slots: write w, read w + 1 (horizontal: alternate between slots 0 and 1)
+            rhs = i & 1
+            whs = 1 - rhs
+            wvs = i - v + H
+            mh = MH[rhs]
+            mv = MV[wvs + 1]
+            qh = add16(mh, _p2_at(limg, y, x, y, x - step, p1_16, p2_16, adaptive))
+            qv = add16(mv, _p2_at(limg, y, x, y - step, x, p1_16, p2_16, adaptive))
+            ns = big
+            if four:
+                was = i - 2 * v + 2 * H
+                wbs = i + 1
+                ma = MA[was + 1]
+                mb = MB[wbs + 1]
+                qa = add16(ma, _p2_at(limg, y, x, y - step, x - step, p1_16, p2_16, adaptive))
+                qb = add16(mb, _p2_at(limg, y, x, y - step, x + step, p1_16, p2_16, adaptive))
+                if accumulate:
+                    nh, nv, na, nb, ns = _agg4(C, PH, PV, PA, PB, Sf, sb, dst, db, whs * E, wvs * E, was * E,
+                                               wbs * E, mh, mv, ma, mb, qh, qv, qa, qb, p1_16,
+                                               mk0, mk1, mk2, mk3, D, True)
+                else:
+                    nh, nv, na, nb, ns = _agg4(C, PH, PV, PA, PB, Sf, sb, dst, db, whs * E, wvs * E, was * E,
+                                               wbs * E, mh, mv, ma, mb, qh, qv, qa, qb, p1_16,
+                                               mk0, mk1, mk2, mk3, D, False)
+                MA[was] = na
+                MB[wbs] = nb
+            else:
+                if accumulate:
+                    nh, nv, ns = _agg2(C, PH, PV, Sf, sb, dst, db, whs * E, wvs * E, mh, mv, qh, qv, p1_16,
+                                       mk0, mk1, D, True)
+                else:
+                    nh, nv, ns = _agg2(C, PH, PV, Sf, sb, dst, db, whs * E, wvs * E, mh, mv, qh, qv, p1_16,
+                                       mk0, mk1, D, False)
+            MH[whs] = nh
+            MV[wvs] = nv
+            # --- winner of a complete pixel
+            if select:
+                if k_lo > k_hi:
+                    disp[y, x] = nan
+                    best[x] = -1
+                else:
+                    dv, bk = _select_pixel(dst, db, ns, k_lo, k_hi, x, W, dmin, uniq, subpix, rv, rd, forward)
+                    disp[y, x] = dv
+                    best[x] = bk
         if select:
-            _select_row(Srow, dmin, uniq, lr_thr, subpix, disp[y], dispR[y], rv, rd, best)
+            if lr_thr >= 0.0:
+                for x in range(W):
+                    b = best[x]
+                    if b < 0 or disp[y, x] != disp[y, x]:
+                        continue
+                    q = W - 1 - x + b
+                    if abs(np.float64(b - rd[q])) > lr_thr:
+                        disp[y, x] = nan
+            nq = rv.shape[0]
+            for xr in range(W):
+                q = W - 1 - dmin - xr
+                if 0 <= q < nq and rd[q] >= 0:
+                    dispR[y, xr] = np.float32(dmin + rd[q])
+                else:
+                    dispR[y, xr] = nan
 
 
 # ----------------------------------------------------------------------------------------------
@@ -323,58 +413,100 @@ def _pool() -> ThreadPoolExecutor:
 
 
 def _thread_buffers(H: int, W: int, D: int, kind: int, h: int) -> dict[str, np.ndarray]:
-    n_diag = W + H + 1
-    bufV = np.zeros((W, D + 2), np.int16)
-    bufA = np.zeros((n_diag, D + 2), np.int16)
-    bufB = np.zeros((n_diag, D + 2), np.int16)
-    for b in (bufV, bufA, bufB):
-        b[:, 0] = _SENTINEL
-        b[:, D + 1] = _SENTINEL
-    work = np.zeros((4, D + 2), np.int16)
-    work[:, 0] = _SENTINEL
-    work[:, D + 1] = _SENTINEL
+    E = D + 2
+    slots = {"H": 2, "V": W + H + 1, "A": W + 2 * H + 1, "B": W + 2}
+    bufs: dict[str, np.ndarray] = {}
+    for name, n in slots.items():
+        P = np.zeros((n, E), np.int16)
+        P[:, 0] = _SENTINEL
+        P[:, E - 1] = _SENTINEL
+        bufs["P" + name] = P.reshape(-1)
+        bufs["M" + name] = np.zeros(n, np.int16)
     if kind == 1:
-        colsum = np.zeros((W + 2 * h, D), np.int16)
+        colsum = np.zeros((W + 2 * h) * D, np.int16)
         rrev = np.zeros(1, np.uint64)
         srev = np.zeros(W + 2 * h + D - 1, np.int16)
         irev = np.zeros(W + 2 * h + D - 1, np.int16)
     else:
-        colsum = np.zeros((1, D), np.int16)
+        colsum = np.zeros(1, np.int16)
         rrev = np.zeros(W + D - 1, np.uint64)
         srev = irev = np.zeros(1, np.int16)
-    return {
-        "bufV": bufV, "minV": np.zeros(W, np.int16),
-        "bufA": bufA, "minA": np.zeros(n_diag, np.int16),
-        "bufB": bufB, "minB": np.zeros(n_diag, np.int16),
-        "work": work, "colsum": colsum, "hsum": np.zeros(D, np.int32),
+    bufs.update({
+        "C": np.zeros(D, np.int16), "Ssum": np.zeros(D, np.int16), "colsum": colsum, "hsum": np.zeros(D, np.int32),
         "rrev": rrev, "srev": srev, "irev": irev,
         "rv": np.empty(W + D - 1, np.int16), "rd": np.empty(W + D - 1, np.int16),
         "best": np.empty(W, np.int64),
-    }
+    })
+    return bufs
+
+
+def _reset_buffers(b: dict[str, np.ndarray], D: int) -> None:
+    E = D + 2
+    for name in "HVAB":
+        b["P" + name].reshape(-1, E)[:, 1:E - 1] = 0
+        b["M" + name][:] = 0
+
+
+class Workspace:
+    """Buffers (sum volume, row buffers) kept between ``sgm_match`` calls on images of one size,
+    so that repeated calls (video frames) skip allocating and page-faulting about 2*H*W*D bytes.
+    Not thread-safe: one workspace per concurrent caller."""
+
+    def __init__(self) -> None:
+        self.S: np.ndarray | None = None
+        self.bufs: list[dict[str, np.ndarray]] | None = None
+        self._key: tuple | None = None
+
+    def fits(self, *key) -> bool:
+        return self._key == key
+
+    def keep(self, S, bufs, key) -> None:
+        self.S, self.bufs, self._key = S, bufs, key
+
+    def release(self) -> None:
+        """Drop the buffers."""
+        self.S = self.bufs = self._key = None
+
+    @property
+    def nbytes(self) -> int:
+        if self.S is None:
+            return 0
+        return self.S.nbytes + sum(a.nbytes for b in self.bufs for a in b.values())
 
 
 def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 8, lr_check: bool = True,
                  cost: str = "census", block_size: int = 5) -> int:
-    """Bytes ``sgm_match`` allocates for an image of this size (without the input images).
+    """Bytes ``sgm_match`` allocates for an image of this size, without the input images.
 
-    The int16 sum volume (2 * H * W * D) dominates; the rest is two float32 outputs, the cost
-    inputs (census codes or prefiltered images) and per-thread row buffers.
+    The int16 sum volume (2 * H * W * D) dominates; the rest is the two float32 outputs, the cost
+    inputs (census codes or prefiltered images) and per-thread row buffers (about
+    2 * (D + 2) * (3 W + 3 H) bytes per thread). ``paths`` and ``lr_check`` do not change it.
     """
     H, W, D = int(height), int(width), int(num_disparities)
-    h = block_size // 2
+    h = block_size // 2 if cost == "sad" else 0
+    E = D + 2
     total = 2 * H * W * D  # sum volume
     total += 2 * 4 * H * W  # left and right disparity
-    total += 2 * 8 * H * W if cost == "census" else 4 * 2 * H * W + 2 * (H + 2) * (W + 2)
-    per_thread = 2 * (D + 2) * (W + 2 * (W + H + 1) + 4) + 2 * 3 * (W + H + 1)
-    per_thread += 2 * 2 * (W + D) + 8 * W + 4 * D
-    per_thread += 2 * (W + 2 * h) * D + 2 * 2 * (W + 2 * h + D) if cost == "sad" else 8 * (W + D)
+    total += 2 * 8 * H * W if cost == "census" else 2 * 2 * 2 * H * W + 2 * (H + 2) * (W + 2) * 2
+    slots = 2 + (W + H + 1) + (W + 2 * H + 1) + (W + 2)
+    per_thread = 2 * E * slots + 2 * slots  # path vectors + minima
+    per_thread += 2 * 2 * D + 4 * D + 2 * 2 * (W + D) + 8 * W  # C, Ssum, hsum, right view, best
+    if cost == "sad":
+        per_thread += 2 * (W + 2 * h) * D + 2 * 2 * (W + 2 * h + D)
+    else:
+        per_thread += 8 * (W + D)
     return total + 2 * per_thread
 
 
-def _prepare_cost(left, right, cost, census_window):
+def _prepare_cost(left, right, cost, census_window, threads=1):
     if cost == "census":
-        lcode = census_transform(left, census_window)
-        rcode = census_transform(right, census_window)
+        if threads >= 2:
+            fut = _pool().submit(census_transform, right, census_window)
+            lcode = census_transform(left, census_window)
+            rcode = fut.result()
+        else:
+            lcode = census_transform(left, census_window)
+            rcode = census_transform(right, census_window)
         dummy = np.zeros((1, 1), np.int16)
         return lcode, rcode, dummy, dummy, dummy, dummy
     lsob, lint = sad_prefilter(left)
@@ -384,7 +516,8 @@ def _prepare_cost(left, right, cost, census_window):
 
 
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
-         path_mask, adaptive_p2, uniqueness, lr_check, subpixel, threads, select=True):
+         path_mask, adaptive_p2, uniqueness, lr_check, subpixel, threads, select=True, keep_sums=False,
+         workspace=None):
     if cost not in _KIND:
         raise ValueError(f"`cost` must be one of {sorted(_KIND)}, got {cost!r}")
     check_penalties(cost, block_size, census_window, int(p1), int(p2))
@@ -399,14 +532,21 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     timings = {}
 
     t0 = time.perf_counter()
-    lcode, rcode, lsob, lint, rsob, rint = _prepare_cost(left, right, cost, census_window)
+    lcode, rcode, lsob, lint, rsob, rint = _prepare_cost(left, right, cost, census_window, threads)
     t1 = time.perf_counter()
     timings["cost"] = (t1 - t0) * 1e3
 
-    S = np.empty((H, W, D), np.int16)
+    if workspace is not None and workspace.fits(H, W, D, kind, h):
+        S, bufs = workspace.S, workspace.bufs
+    else:
+        S = np.empty((H, W, D), np.int16)
+        bufs = [_thread_buffers(H, W, D, kind, h) for _ in range(2)]
+        if workspace is not None:
+            workspace.keep(S, bufs, (H, W, D, kind, h))
+    for b in bufs:
+        _reset_buffers(b, D)
     disp = np.empty((H, W), np.float32)
     dispR = np.empty((H, W), np.float32)
-    bufs = [_thread_buffers(H, W, D, kind, h) for _ in range(2)]
     lr_thr = -1.0 if lr_check is None else float(lr_check)
     mid = H // 2
 
@@ -421,9 +561,8 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
         if nrows == 0:
             return
         sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, left,
-                 S, y_first, nrows, step, phase == 1, select and phase == 1, fresh,
-                 b["bufV"], b["minV"], b["bufA"], b["minA"], b["bufB"], b["minB"], b["work"],
-                 b["colsum"], b["hsum"], b["rrev"], b["srev"], b["irev"],
+                 S.reshape(-1), y_first, nrows, step, phase == 1, select and phase == 1, fresh, keep_sums,
+                 b["PH"], b["PV"], b["PA"], b["PB"], b["MH"], b["MV"], b["MA"], b["MB"], b["C"], b["Ssum"], b["colsum"], b["hsum"], b["rrev"], b["srev"], b["irev"],
                  dmin, h, shift, cmax, cinv, p1s, p2s, bool(adaptive_p2), int(path_mask),
                  float(uniqueness), lr_thr, bool(subpixel), disp, dispR, b["rv"], b["rd"], b["best"])
 
@@ -445,7 +584,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
               num_disparities: int = 64, block_size: int = 5, census_window: tuple[int, int] = (9, 7),
               p1: int = 10, p2: int = 120, paths: int = 8, adaptive_p2: bool = False,
               uniqueness: float = 0.0, lr_check: float | None = 1.0, subpixel: bool = True,
-              threads: int = 2) -> tuple[np.ndarray, np.ndarray | None, dict[str, float]]:
+              threads: int = 2, workspace: Workspace | None = None
+              ) -> tuple[np.ndarray, np.ndarray | None, dict[str, float]]:
     """Semi-global matching of a rectified grey pair (inputs already validated by the caller).
 
     Parameters
@@ -462,6 +602,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
     lr_check : max |d_left - d_right| in pixels for the left-right check; None = off.
     subpixel : parabola fit through the best sum and its two neighbours.
     threads : 1 or 2.
+    workspace : a ``Workspace`` to keep the big buffers between calls on one image size (None:
+        allocate per call).
 
     Returns
     -------
@@ -478,7 +620,7 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
                                    num_disparities=num_disparities, block_size=block_size,
                                    census_window=census_window, p1=p1, p2=p2, path_mask=mask,
                                    adaptive_p2=adaptive_p2, uniqueness=uniqueness, lr_check=lr_check,
-                                   subpixel=subpixel, threads=threads)
+                                   subpixel=subpixel, threads=threads, workspace=workspace)
     return disp, dispR, timings
 
 
@@ -489,7 +631,7 @@ def sum_volume(left: np.ndarray, right: np.ndarray, *, path_mask: int = ALL_PATH
     kw = dict(cost="census", min_disparity=0, num_disparities=64, block_size=5, census_window=(9, 7),
               p1=10, p2=120, adaptive_p2=False, uniqueness=0.0, lr_check=1.0, subpixel=True)
     kw.update(kwargs)
-    _, _, S, _ = _run(left, right, path_mask=path_mask, threads=threads, **kw)
+    _, _, S, _ = _run(left, right, path_mask=path_mask, threads=threads, keep_sums=True, **kw)
     return S
 
 

@@ -96,129 +96,123 @@ def sad_prefilter(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 # tests compare with the numpy reference is computed by exactly the code the fast path runs).
 
 
-@njit(cache=True, nogil=True, inline="always")
+_U = np.uint64  # unsigned indices: numba adds no negative-index wraparound, LLVM emits plain vector loads
+
+
+@njit(cache=True, nogil=True)
 def _clamp(i, n):  # pragma: no cover - numba
     return 0 if i < 0 else (n - 1 if i >= n else i)
 
 
-@njit(cache=True, nogil=True, inline="always")
-def census_reverse_row(rrow, rrev, dmin):  # pragma: no cover - numba
-    """rrev[j] = rrow[clamp(W - 1 - dmin - j)] for j in [0, len(rrev))."""
-    W = rrow.shape[0]
+@njit(cache=True, nogil=True)
+def census_reverse_row(rcode, y, rrev, dmin):  # pragma: no cover - numba
+    """rrev[j] = rcode[y, clamp(W - 1 - dmin - j)] for j in [0, len(rrev))."""
+    W = rcode.shape[1]
     K = W - 1 - dmin
     for j in range(rrev.shape[0]):
-        rrev[j] = rrow[_clamp(K - j, W)]
+        rrev[j] = rcode[y, _clamp(K - j, W)]
 
 
-@njit(cache=True, nogil=True, inline="always")
-def census_pixel_cost(lc, rrev, x, C):  # pragma: no cover - numba
+@njit(cache=True, nogil=True)
+def census_pixel_cost(lc, rrev, x, W, C, D):  # pragma: no cover - numba
     """C[k] = popcount(lc ^ census_right[x - dmin - k]) (rrev from census_reverse_row)."""
-    D = C.shape[0]
-    W1 = rrev.shape[0] - D  # = W - 1
-    j0 = W1 - x
-    r = rrev[j0:j0 + D]
+    j0 = W - 1 - x
     for k in range(D):
-        C[k] = popcnt16(lc ^ r[k])
+        C[k] = popcnt16(lc ^ rrev[_U(j0 + k)])
 
 
-@njit(cache=True, nogil=True, inline="always")
-def sad_reverse_row(srow, irow, srev, irev, dmin, h):  # pragma: no cover - numba
-    """srev[j] = srow[clamp(W - 1 + h - dmin - j)], same for the intensity row."""
-    W = srow.shape[0]
+@njit(cache=True, nogil=True)
+def sad_reverse_row(rsob, rint, y, srev, irev, dmin, h):  # pragma: no cover - numba
+    """srev[j] = rsob[y, clamp(W - 1 + h - dmin - j)], same for the intensity row."""
+    W = rsob.shape[1]
     K = W - 1 + h - dmin
     for j in range(srev.shape[0]):
         c = _clamp(K - j, W)
-        srev[j] = srow[c]
-        irev[j] = irow[c]
+        srev[j] = rsob[y, c]
+        irev[j] = rint[y, c]
 
 
-@njit(cache=True, nogil=True, inline="always")
-def sad_colsum_row(colsum, add, lsrow, lirow, srev, irev, h):  # pragma: no cover - numba
-    """colsum[x' + h, k] (+/-)= AD(x', x' - dmin - k) for x' in [-h, W + h), one image row.
+@njit(cache=True, nogil=True)
+def sad_colsum_row(colsum, add, lsob, lint, y, srev, irev, h, D):  # pragma: no cover - numba
+    """colsum[(x' + h) * D + k] (+/-)= AD(x', x' - dmin - k) for x' in [-h, W + h), one image row.
 
     AD = |sobel_L - sobel_R| + |I_L - I_R| // 4. srev/irev come from sad_reverse_row for the
     same row.
     """
-    W = lsrow.shape[0]
-    D = colsum.shape[1]
+    W = lsob.shape[1]
     two = np.int16(2)
     for xp in range(-h, W + h):
         c = _clamp(xp, W)
-        ls = lsrow[c]
-        li = lirow[c]
+        ls = lsob[y, c]
+        li = lint[y, c]
         j0 = W - 1 + h - xp
-        rs = srev[j0:j0 + D]
-        ri = irev[j0:j0 + D]
-        cs = colsum[xp + h]
+        base = (xp + h) * D
         if add:
             for k in range(D):
-                ad = add16(absdiff16(ls, rs[k]), shr16(absdiff16(li, ri[k]), two))
-                cs[k] = add16(cs[k], ad)
+                ad = add16(absdiff16(ls, srev[_U(j0 + k)]), shr16(absdiff16(li, irev[_U(j0 + k)]), two))
+                colsum[_U(base + k)] = add16(colsum[_U(base + k)], ad)
         else:
             for k in range(D):
-                ad = add16(absdiff16(ls, rs[k]), shr16(absdiff16(li, ri[k]), two))
-                cs[k] = sub16(cs[k], ad)
+                ad = add16(absdiff16(ls, srev[_U(j0 + k)]), shr16(absdiff16(li, irev[_U(j0 + k)]), two))
+                colsum[_U(base + k)] = sub16(colsum[_U(base + k)], ad)
 
 
 @njit(cache=True, nogil=True)
-def sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h):  # pragma: no cover
+def sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D):  # pragma: no cover
     """colsum = sum of AD rows clamp(y - h) .. clamp(y + h)."""
     H = lsob.shape[0]
-    colsum[:, :] = 0
+    colsum[:] = 0
     for yy in range(y - h, y + h + 1):
         yc = _clamp(yy, H)
-        sad_reverse_row(rsob[yc], rint[yc], srev, irev, dmin, h)
-        sad_colsum_row(colsum, True, lsob[yc], lint[yc], srev, irev, h)
+        sad_reverse_row(rsob, rint, yc, srev, irev, dmin, h)
+        sad_colsum_row(colsum, True, lsob, lint, yc, srev, irev, h, D)
 
 
 @njit(cache=True, nogil=True)
-def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h):  # pragma: no cover
+def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, D):  # pragma: no cover
     """Move the column window from row y - step to row y (add row y + step*h, drop y - step*(h+1))."""
     H = lsob.shape[0]
     yin = _clamp(y + step * h, H)
     yout = _clamp(y - step * (h + 1), H)
     if yin == yout:
         return
-    sad_reverse_row(rsob[yin], rint[yin], srev, irev, dmin, h)
-    sad_colsum_row(colsum, True, lsob[yin], lint[yin], srev, irev, h)
-    sad_reverse_row(rsob[yout], rint[yout], srev, irev, dmin, h)
-    sad_colsum_row(colsum, False, lsob[yout], lint[yout], srev, irev, h)
+    sad_reverse_row(rsob, rint, yin, srev, irev, dmin, h)
+    sad_colsum_row(colsum, True, lsob, lint, yin, srev, irev, h, D)
+    sad_reverse_row(rsob, rint, yout, srev, irev, dmin, h)
+    sad_colsum_row(colsum, False, lsob, lint, yout, srev, irev, h, D)
 
 
-@njit(cache=True, nogil=True, inline="always")
-def sad_hsum_init(hsum, colsum, x, h):  # pragma: no cover - numba
-    """hsum[k] = sum of colsum over x' in [x - h, x + h] (colsum row index x' + h)."""
-    D = hsum.shape[0]
-    hsum[:] = 0
-    for xp in range(x - h, x + h + 1):
-        cs = colsum[xp + h]
-        for k in range(D):
-            hsum[k] += cs[k]
-
-
-@njit(cache=True, nogil=True, inline="always")
-def sad_hsum_advance(hsum, colsum, x, step, h):  # pragma: no cover - numba
-    """Move the row window from x - step to x."""
-    D = hsum.shape[0]
-    cin = colsum[x + step * h + h]
-    cout = colsum[x - step * (h + 1) + h]
+@njit(cache=True, nogil=True)
+def sad_hsum_init(hsum, colsum, x, h, D):  # pragma: no cover - numba
+    """hsum[k] = sum of colsum over x' in [x - h, x + h]."""
     for k in range(D):
-        hsum[k] += np.int32(cin[k]) - np.int32(cout[k])
+        hsum[k] = 0
+    for xp in range(x - h, x + h + 1):
+        base = (xp + h) * D
+        for k in range(D):
+            hsum[k] += colsum[_U(base + k)]
 
 
-@njit(cache=True, nogil=True, inline="always")
-def sad_pixel_cost(hsum, shift, cmax, C):  # pragma: no cover - numba
+@njit(cache=True, nogil=True)
+def sad_hsum_advance(hsum, colsum, x, step, h, D):  # pragma: no cover - numba
+    """Move the row window from x - step to x."""
+    bin_ = (x + step * h + h) * D
+    bout = (x - step * (h + 1) + h) * D
+    for k in range(D):
+        hsum[k] += np.int32(colsum[_U(bin_ + k)]) - np.int32(colsum[_U(bout + k)])
+
+
+@njit(cache=True, nogil=True)
+def sad_pixel_cost(hsum, shift, cmax, C, D):  # pragma: no cover - numba
     """C[k] = min(hsum[k] >> shift, cmax) as int16."""
-    D = C.shape[0]
     for k in range(D):
         v = hsum[k] >> shift
         C[k] = np.int16(v if v < cmax else cmax)
 
 
-@njit(cache=True, nogil=True, inline="always")
-def fill_invalid(C, x, W, dmin, cinv):  # pragma: no cover - numba
+@njit(cache=True, nogil=True)
+def fill_invalid(C, x, W, dmin, cinv, D):  # pragma: no cover - numba
     """Set C[k] = cinv where x - dmin - k is outside [0, W); return (k_lo, k_hi) valid, inclusive."""
-    D = C.shape[0]
     k_lo = x - dmin - W + 1
     if k_lo < 0:
         k_lo = 0
@@ -226,7 +220,8 @@ def fill_invalid(C, x, W, dmin, cinv):  # pragma: no cover - numba
     if k_hi > D - 1:
         k_hi = D - 1
     if k_lo > k_hi:
-        C[:] = cinv
+        for k in range(D):
+            C[k] = cinv
         return k_lo, k_hi
     for k in range(0, k_lo):
         C[k] = cinv
@@ -239,28 +234,31 @@ def fill_invalid(C, x, W, dmin, cinv):  # pragma: no cover - numba
 def cost_volume_kernel(kind, lcode, rcode, lsob, lint, rsob, rint, dmin, h, shift, cmax, cinv, out):  # pragma: no cover
     """Fill out (H, W, D) int16 with the cost the fused passes use. kind 0 = census, 1 = SAD."""
     H, W, D = out.shape
+    C = np.empty(D, np.int16)
     if kind == 0:
         rrev = np.empty(W + D - 1, np.uint64)
         for y in range(H):
-            census_reverse_row(rcode[y], rrev, dmin)
+            census_reverse_row(rcode, y, rrev, dmin)
             for x in range(W):
-                census_pixel_cost(lcode[y, x], rrev, x, out[y, x])
-                fill_invalid(out[y, x], x, W, dmin, cinv)
+                census_pixel_cost(lcode[y, x], rrev, x, W, C, D)
+                fill_invalid(C, x, W, dmin, cinv, D)
+                out[y, x, :] = C
     else:
         L = W + 2 * h + D - 1
         srev = np.empty(L, np.int16)
         irev = np.empty(L, np.int16)
-        colsum = np.zeros((W + 2 * h, D), np.int16)
+        colsum = np.zeros((W + 2 * h) * D, np.int16)
         hsum = np.zeros(D, np.int32)
         for y in range(H):
             if y == 0:
-                sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h)
+                sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D)
             else:
-                sad_colsum_advance(colsum, y, 1, lsob, lint, rsob, rint, srev, irev, dmin, h)
+                sad_colsum_advance(colsum, y, 1, lsob, lint, rsob, rint, srev, irev, dmin, h, D)
             for x in range(W):
                 if x == 0:
-                    sad_hsum_init(hsum, colsum, x, h)
+                    sad_hsum_init(hsum, colsum, x, h, D)
                 else:
-                    sad_hsum_advance(hsum, colsum, x, 1, h)
-                sad_pixel_cost(hsum, shift, cmax, out[y, x])
-                fill_invalid(out[y, x], x, W, dmin, cinv)
+                    sad_hsum_advance(hsum, colsum, x, 1, h, D)
+                sad_pixel_cost(hsum, shift, cmax, C, D)
+                fill_invalid(C, x, W, dmin, cinv, D)
+                out[y, x, :] = C

@@ -12,7 +12,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["add16", "sub16", "min16", "max16", "absdiff16", "shr16", "popcnt16"]
+__all__ = ["add16", "sub16", "min16", "max16", "absdiff16", "and16", "shr16", "popcnt16"]
 
 
 def _check_int16(*args: types.Type) -> None:
@@ -77,6 +77,17 @@ def absdiff16(typingctx, a, b):
         d1 = builder.sub(a, b)
         d2 = builder.sub(b, a)
         return builder.select(builder.icmp_signed(">", d1, d2), d1, d2)
+
+    return types.int16(types.int16, types.int16), codegen
+
+
+@intrinsic
+def and16(typingctx, a, b):
+    """Bitwise ``a & b`` for int16."""
+    _check_int16(a, b)
+
+    def codegen(context, builder, signature, args):
+        return builder.and_(args[0], args[1])
 
     return types.int16(types.int16, types.int16), codegen
 
