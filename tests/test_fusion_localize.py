@@ -254,7 +254,7 @@ def test_bad_rig():
 # --- ransac_1d against a brute-force reference -------------------------------------------------------
 
 def _brute_force_best_count(values, tol):
-    return max(int((np.abs(values - h) <= tol).sum()) for h in values)
+    return max(int(((values >= h - tol) & (values <= h + tol)).sum()) for h in values)
 
 
 @settings(max_examples=100, deadline=None)
@@ -265,7 +265,7 @@ def test_ransac_1d_finds_the_largest_consistent_set(values, tol):
     centre, inl = ransac_1d(v, tol)
     assert inl.shape == v.shape and inl.dtype == bool
     assert inl.sum() >= _brute_force_best_count(v, tol)  # refinement never loses support
-    assert np.all(np.abs(v[inl] - centre) <= tol)
+    assert np.all((v[inl] >= centre - tol) & (v[inl] <= centre + tol))
 
 
 def test_ransac_1d_edge_cases():
@@ -338,7 +338,9 @@ def test_property_well_formed_result(case):
             assert np.all(np.isfinite(objs.xyz[i]))
             if params["method"] == "ransac":
                 assert objs.inliers[i] >= params["min_pixels"]
-            assert 0 < objs.inlier_ratio[i] <= 1
+                assert 0 < objs.inlier_ratio[i] <= 1
+            else:  # the median's "inliers" are the votes within tolerance_px of it: possibly none
+                assert 0 <= objs.inlier_ratio[i] <= 1
         else:
             assert math.isnan(objs.distance_m[i])
     json.dumps(objs.to_json(), allow_nan=False)
@@ -380,7 +382,8 @@ def test_grow_density_merges_a_slanted_surface():
     box = np.array([[0, 0, 200, 60]])
     plain = localize(box, d, rig, box_shrink=0.0, centre_sigma=0, grow_density=0)
     grown = localize(box, d, rig, box_shrink=0.0, centre_sigma=0, grow_density=0.2)
-    assert grown.inliers[0] >= 0.98 * d.size and plain.inliers[0] < d.size / 5
+    # 12 000 votes > max_samples: the sets are found on a sample; growth stops within one step of the ends
+    assert grown.inliers[0] >= 0.95 * d.size and plain.inliers[0] < d.size / 5
     assert grown.distance_m[0] == pytest.approx(z.mean(), rel=0.01)
 
 
