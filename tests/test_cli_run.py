@@ -371,3 +371,20 @@ def test_raw_pair_needs_rectify_and_is_rectified(tmp_path, capsys):
     assert pfm.shape == (160, 240)
     # The wall at 8 m: f B / Z = 700 * 0.12 / 8 = 10.5 px, unchanged by rectifying an ideal rig.
     assert np.nanmedian(pfm[:, 100:]) == pytest.approx(10.5, abs=0.5)
+
+
+def test_demo_json_identical_across_thread_counts_with_the_detector(tmp_path, yolox_nano):
+    texts = []
+    for threads in ("1", "2"):
+        out = tmp_path / f"t{threads}"
+        argv = ["-q", "run", "--model", str(yolox_nano), "--threads", threads, "--save", "json", "-o", str(out)]
+        assert main(argv) == 0
+        texts.append((out / "motorcycle_skimage_objects.json").read_bytes())
+    assert texts[0] == texts[1]
+    assert b'"motorcycle"' in texts[0]
+
+
+def test_save_selects_the_outputs(tmp_path):
+    out = tmp_path / "o"
+    assert main(["-q", "run", "--model", "none", "--scale", "0.25", "--save", "pfm,json", "-o", str(out)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["motorcycle_skimage_disparity.pfm", "motorcycle_skimage_objects.json"]
