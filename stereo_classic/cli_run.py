@@ -333,12 +333,34 @@ def _frame_record(name: str, index: int, result: Any, detector_name: str | None,
 
 def _write_frame(outdir: Path, name: str, result: Any, rig: Any, cfg: dict[str, Any], record: dict[str, Any],
                  jsonl: Any) -> list[Path]:
+    """Write one frame's files, the objects record last; on a failure remove the frame's files again."""
+    from stereo_classic import io
+
+    text = json.dumps(record, indent=2, allow_nan=False) + "\n"  # fails here, before any file, if malformed
+    outdir.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    try:
+        _write_images(outdir, name, result, rig, cfg, written)
+        # The objects record is written last: it marks the frame as finished.
+        if jsonl is not None:
+            jsonl.append(record)
+        elif "json" in cfg["save"]:
+            target = outdir / SAVE_KINDS["json"].format(name=name)
+            written.append(target)
+            with io.atomic_write(target, "w") as f:
+                f.write(text)
+    except BaseException:
+        for p in written:
+            p.unlink(missing_ok=True)
+        raise
+    return written
+
+
+def _write_images(outdir: Path, name: str, result: Any, rig: Any, cfg: dict[str, Any], written: list[Path]) -> None:
     from stereo_classic import io, visualize
 
-    outdir.mkdir(parents=True, exist_ok=True)
     save = set(cfg["save"]) | ({"ply"} if cfg["ply"] else set())
     disp = result.disparity.disparity
-    written: list[Path] = []
 
     def path(kind: str) -> Path:
         p = outdir / SAVE_KINDS[kind].format(name=name)
@@ -369,14 +391,6 @@ def _write_frame(outdir: Path, name: str, result: Any, rig: Any, cfg: dict[str, 
         keep = np.isfinite(depth) & (depth >= near) & (depth <= far)
         colors = result.left if result.left.ndim == 3 else np.repeat(result.left[..., None], 3, axis=2)
         io.write_ply(path("ply"), points[keep], colors[keep])
-    # The objects record is written last: it marks the frame as finished.
-    text = json.dumps(record, indent=2, allow_nan=False) + "\n"
-    if jsonl is not None:
-        jsonl.append(record)
-    elif "json" in save:
-        with io.atomic_write(path("json"), "w") as f:
-            f.write(text)
-    return written
 
 
 class _JsonlSink:

@@ -388,3 +388,24 @@ def test_save_selects_the_outputs(tmp_path):
     out = tmp_path / "o"
     assert main(["-q", "run", "--model", "none", "--scale", "0.25", "--save", "pfm,json", "-o", str(out)]) == 0
     assert sorted(p.name for p in out.iterdir()) == ["motorcycle_skimage_disparity.pfm", "motorcycle_skimage_objects.json"]
+
+
+def test_a_failing_write_leaves_no_part_of_that_frame(tmp_path, pairs, monkeypatch, capsys):
+    from stereo_classic import io
+
+    out = tmp_path / "o"
+    real = io.write_kitti_disparity
+    calls = {"n": 0}
+
+    def fail_on_second(path, disparity):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise OSError(28, "No space left on device")
+        return real(path, disparity)
+
+    monkeypatch.setattr(io, "write_kitti_disparity", fail_on_second)
+    assert main(_base(pairs, out)) == 1
+    assert "No space left" in capsys.readouterr().err
+    _check_outputs(out, "f0_L", (160, 240), kinds=EVERY_KIND[:5])
+    assert not list(out.glob("f1_L*")) and not list(out.glob("f2_L*"))
+    assert len((out / "objects.jsonl").read_text().splitlines()) == 1
