@@ -241,7 +241,7 @@ def _round(value: float, digits: int) -> float | None:
     return None if not math.isfinite(value) else round(float(value), digits)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class LocalizedObjects:
     """Detected objects with one distance and one 3D position each (one row per detection).
 

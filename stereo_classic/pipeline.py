@@ -27,7 +27,7 @@ __all__ = ["Localizer", "PipelineResult", "format_timings", "STAGES"]
 STAGES: tuple[str, ...] = ("rectify", "disparity", "detect", "localize", "total")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PipelineResult:
     """What :class:`Localizer` returns for one stereo pair.
 

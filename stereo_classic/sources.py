@@ -38,7 +38,7 @@ class SourceError(ValueError):
     """An input that cannot be used (empty glob, unequal left/right lists, camera that cannot be opened)."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Frame:
     """One stereo pair from a source.
 
