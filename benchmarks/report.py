@@ -251,11 +251,13 @@ def figure_disparities(
     first_row = panels + [("", "blank", None)] * (panels_per_row - len(panels))
     rows_spec = [first_row]
     items = list(outputs.items())
-    for k in range(0, len(items), per_row):
+    step = per_row if gt is not None else panels_per_row  # without ground truth: disparities only
+    for k in range(0, len(items), step):
         row = []
-        for name, disp in items[k:k + per_row]:
+        for name, disp in items[k:k + step]:
             row.append((name, "disp", disp))
-            row.append((f"{name} |error|", "err", disp) if gt is not None else ("", "blank", None))
+            if gt is not None:
+                row.append((f"{name} |error|", "err", disp))
         row += [("", "blank", None)] * (panels_per_row - len(row))
         rows_spec.append(row)
     h, w = left.shape[:2]
@@ -287,8 +289,10 @@ def figure_disparities(
                 img[unknown] = 0.0
                 ax.imshow(img, interpolation="nearest")
             ax.set_title(label, fontsize=8)
-    fig.suptitle(f"{scene_name}: disparity 0-{vmax:.0f} px (black = unknown); |error| 0-{err_max:g} px "
-                 "(black = unknown, grey = no ground truth)", fontsize=10)
+    title = f"{scene_name}: disparity 0-{vmax:.0f} px (black = unknown)"
+    if gt is not None:
+        title += f"; |error| 0-{err_max:g} px (black = unknown, grey = no ground truth)"
+    fig.suptitle(title, fontsize=10)
     fig.tight_layout(rect=(0, 0.04, 1, 0.98))
     cax = fig.add_axes((0.06, 0.012, 0.4, 0.008))
     fig.colorbar(ScalarMappable(Normalize(0, vmax), turbo), cax=cax, orientation="horizontal", label="disparity [px]")
@@ -364,7 +368,8 @@ def figure_speed(path: Path, rows: Sequence[Mapping[str, Any]], inputs: Sequence
         ax.set_yticklabels(methods, fontsize=8)
         ax.invert_yaxis()
         ax.set_xlabel("median ms per pair (whiskers: min-max)")
-        ax.set_title(name, fontsize=10)
+        r0 = sel[0]
+        ax.set_title(f"{name}: {r0['width']}x{r0['height']}, {r0['num_disparities']} disparities", fontsize=10)
         ax.grid(axis="x", alpha=0.3)
         ax.legend(fontsize=8)
     fig.tight_layout()
