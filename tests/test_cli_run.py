@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from stereo_classic.cli import main
-from tests.test_fusion_scenes import planted_scene
+from test_fusion_scenes import planted_scene  # tests/ is on sys.path under pytest
 
 EVERY_KIND = ("boxes.png", "disparity.png", "depth.png", "disparity.pfm", "disparity_kitti.png", "points.ply",
               "objects.json")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from stereo_classic.pipeline import STAGES, Localizer, format_timings
-from tests.test_fusion_scenes import planted_scene
+from test_fusion_scenes import planted_scene  # tests/ is on sys.path under pytest
 
 
 def _rig(width=240, height=160):
