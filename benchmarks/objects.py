@@ -6,11 +6,8 @@ Everything here depends on the ``detectors`` package and ``stereo_classic.locali
 
 Distance references
 -------------------
-- KITTI pair: for each detected box, the LiDAR depths (metres) projected into the left image inside
-  the central part of the box (the same ``box_shrink`` as the fusion); sorted, split into clusters
-  where consecutive depths differ by more than ``max(0.5 m, 5 %)``; the nearest cluster holding at
-  least 20 % of the largest cluster's points (and at least 5 points) is the object; its median depth
-  is the reference. See :func:`lidar_reference_distance`.
+- KITTI pair: ``stereo_classic.fusion.sparse_depth_reference``: the median of the nearest dense
+  cluster of the LiDAR depths projected into the box (shrunk as the fusion shrinks it).
 - Motorcycle: the same fusion (``stereo_classic.localize``) applied to the ground-truth disparity.
 """
 
@@ -26,7 +23,6 @@ from typing import Any
 import numpy as np
 
 __all__ = [
-    "lidar_reference_distance",
     "detector_latency",
     "pipeline_fps",
     "distance_errors",
@@ -37,50 +33,6 @@ __all__ = [
 def _unavailable(exc: BaseException | str) -> dict[str, Any]:
     reason = exc if isinstance(exc, str) else f"{type(exc).__name__}: {exc}"
     return {"available": False, "reason": reason}
-
-
-def lidar_reference_distance(gt_depth: np.ndarray, box: Sequence[float], *, shrink: float = 0.2, min_points: int = 5) -> float | None:
-    """Reference distance (metres) of the object in ``box`` from sparse LiDAR depth.
-
-    Parameters
-    ----------
-    gt_depth : (H, W) float array, metres, NaN (or <= 0) where there is no LiDAR point
-    box : (x0, y0, x1, y1) pixels
-    shrink : float in [0, 1)
-        Fraction of the width and height removed, half on each side.
-    min_points : int
-        Fewest points of the chosen cluster; fewer gives None.
-
-    Returns
-    -------
-    float or None
-        Median depth of the nearest dense cluster (module docstring), None without enough points.
-    """
-    depth = np.asarray(gt_depth, dtype=np.float64)
-    if depth.ndim != 2:
-        raise ValueError(f"`gt_depth` must be a 2-D (H, W) depth map, got shape {depth.shape}")
-    if not 0.0 <= shrink < 1.0:
-        raise ValueError(f"`shrink` must be in [0, 1), got {shrink!r}")
-    x0, y0, x1, y1 = (float(v) for v in box)
-    w, h = x1 - x0, y1 - y0
-    h_img, w_img = depth.shape
-    cx0 = int(np.clip(np.floor(x0 + w * shrink / 2), 0, w_img))
-    cx1 = int(np.clip(np.ceil(x1 - w * shrink / 2), 0, w_img))
-    cy0 = int(np.clip(np.floor(y0 + h * shrink / 2), 0, h_img))
-    cy1 = int(np.clip(np.ceil(y1 - h * shrink / 2), 0, h_img))
-    values = depth[cy0:cy1, cx0:cx1].ravel()
-    values = np.sort(values[np.isfinite(values) & (values > 0)])
-    if values.size < min_points:
-        return None
-    gaps = np.diff(values) > np.maximum(0.5, 0.05 * values[:-1])
-    starts = np.concatenate([[0], np.nonzero(gaps)[0] + 1])
-    ends = np.concatenate([starts[1:], [values.size]])
-    sizes = ends - starts
-    need = max(min_points, int(np.ceil(0.2 * sizes.max())))
-    for s, e, n in zip(starts, ends, sizes):
-        if n >= need:
-            return float(np.median(values[s:e]))
-    return None
 
 
 def find_detector_models(models_dir: Path | None) -> list[Path]:
@@ -194,7 +146,7 @@ def _localize_fn() -> Any:
 def distance_errors(scene: Any, model: Path | None, outputs: Mapping[str, np.ndarray], *, box_shrink: float = 0.2, classes: Sequence[str] = ()) -> dict[str, Any]:
     """Distance of each detected object from each method's disparity, against the scene's reference.
 
-    Reference: LiDAR (``scene.gt_depth``, :func:`lidar_reference_distance`) when present, else the
+    Reference: LiDAR (``scene.gt_depth``, ``stereo_classic.fusion.sparse_depth_reference``) when present, else the
     fusion applied to ``scene.gt_disparity``. Returns per object the reference and, per method, the
     fused distance, its error in metres and percent, and the fusion status.
     """
@@ -214,14 +166,13 @@ def distance_errors(scene: Any, model: Path | None, outputs: Mapping[str, np.nda
     labels = list(getattr(dets, "labels", []))
     boxes = np.asarray(dets.xyxy, dtype=np.float64)
     if scene.gt_depth is not None:
-        fusion = importlib.import_module("stereo_classic.fusion")
-        if hasattr(fusion, "sparse_depth_reference"):
-            how = "LiDAR: stereo_classic.fusion.sparse_depth_reference (median of the nearest dense cluster of LiDAR depths in the shrunk box)"
-            ref_arr = fusion.sparse_depth_reference(np.nan_to_num(scene.gt_depth, nan=0.0), boxes, box_shrink=box_shrink)
-            refs = [float(v) if np.isfinite(v) else None for v in ref_arr]
-        else:
-            how = "LiDAR: median of the nearest dense cluster of LiDAR depths in the central box (benchmarks.objects)"
-            refs = [lidar_reference_distance(scene.gt_depth, b, shrink=box_shrink) for b in boxes]
+        try:
+            reference = importlib.import_module("stereo_classic.fusion").sparse_depth_reference
+        except Exception as exc:  # noqa: BLE001
+            return _unavailable(exc)
+        how = "LiDAR: stereo_classic.fusion.sparse_depth_reference (median of the nearest dense cluster of LiDAR depths in the shrunk box)"
+        ref_arr = reference(np.nan_to_num(scene.gt_depth, nan=0.0), boxes, box_shrink=box_shrink)
+        refs = [float(v) if np.isfinite(v) else None for v in ref_arr]
     elif scene.gt_disparity is not None:
         how = "the same fusion (stereo_classic.localize) applied to the ground-truth disparity"
         try:
