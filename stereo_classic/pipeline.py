@@ -167,8 +167,8 @@ class Localizer:
         size = tuple(int(s) for s in (self.rig.raw_image_size if raw else self.rig.image_size))
         if size != (left.shape[1], left.shape[0]):
             raise ValueError(f"the calibration is for {size[0]}x{size[1]}{' raw' if raw else ''} images but the "
-                             f"images are {left.shape[1]}x{left.shape[0]}; use rig.scaled() or the matching "
-                             "calibration")
+                             f"images are {left.shape[1]}x{left.shape[0]}; give the matching calibration "
+                             "(resized images: rig.scaled(f), or --scale on the command line)")
 
     def __call__(self, left: np.ndarray, right: np.ndarray) -> PipelineResult:
         """Run the pipeline on one pair (raw when the rig has rectification maps, else rectified)."""
