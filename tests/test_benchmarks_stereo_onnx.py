@@ -185,3 +185,26 @@ def test_bad_images(sad_model):
         stereo.compute(np.zeros((8, 8, 3), np.uint8), np.zeros((8, 9, 3), np.uint8))
     with pytest.raises(ValueError, match="uint8"):
         stereo.compute(np.zeros((8, 8, 3), np.float32), np.zeros((8, 8, 3), np.float32))
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=40, deadline=None)
+@given(h=st.integers(1, 24), w=st.integers(1, 40), grey=st.booleans(), dtype=st.sampled_from([np.uint8, np.uint16, np.float32]),
+       seed=st.integers(0, 2**16))
+def test_property_any_image_gives_a_map_or_a_clear_error(sad_model, h, w, grey, dtype, seed):
+    rng = np.random.default_rng(seed)
+    shape = (h, w) if grey else (h, w, 3)
+    left = rng.integers(0, 255, shape).astype(dtype)
+    right = rng.integers(0, 255, shape).astype(dtype)
+    stereo = OnnxStereo(sad_model)
+    if dtype is not np.uint8:
+        with pytest.raises(ValueError, match="uint8"):
+            stereo.compute(left, right)
+        return
+    disp = stereo.compute(left, right)
+    assert disp.shape == (h, w) and disp.dtype == np.float32
+    finite = disp[np.isfinite(disp)]
+    assert ((finite >= 0) & (finite < 8)).all()
