@@ -45,6 +45,38 @@ def _get(d: Any, *keys: str) -> Any:
     return d
 
 
+def _summary_section(report: Mapping[str, Any]) -> Section:
+    """Headline numbers, all taken from the tables below (same run)."""
+    sec = Section("Summary")
+    mean = report.get("accuracy_mean") or {}
+    names = [m["name"] for m in report["methods"] if m["available"]]
+    if mean:
+        rows = [[n, fmt(_get(mean.get(n, {}), "full", "all", "bad2")), fmt(_get(mean.get(n, {}), "full", "valid", "bad2")),
+                 fmt(_get(mean.get(n, {}), "full", "all", "d1")), fmt(_get(mean.get(n, {}), "full", "all", "density"), 1)]
+                for n in names if n in mean]
+        n_scenes = max((v.get("scenes", 0) for v in mean.values()), default=0)
+        sec.tables.append(Table(["method", "bad-2 all %", "bad-2 valid %", "D1 all %", "density %"], rows,
+                                f"accuracy, mean over {n_scenes} scene(s) with ground truth"))
+    speed = [r for r in report["speed"] if r.get("median_ms") is not None]
+    if speed:
+        size_of = {r["input"]: (r["width"], r["height"], r["num_disparities"]) for r in speed}
+        target = next((k for k, v in size_of.items() if v == (1242, 375, 128)), None)
+        target = target or max(size_of, key=lambda k: size_of[k][0] * size_of[k][1] * size_of[k][2])
+        t_top = max(r["threads"] for r in speed if r["input"] == target)
+        sel = {r["method"]: r for r in speed if r["input"] == target and r["threads"] == t_top}
+        present = [b for b in _BASELINES if b in sel]
+        rows = []
+        for n in names:
+            if n not in sel:
+                continue
+            r = sel[n]
+            rows.append([n, fmt(r["median_ms"], 1), fmt(r["mde_per_s"], 0)] + [fmt(sel[b]["median_ms"] / r["median_ms"]) for b in present])
+        w, h, d = size_of[target]
+        sec.tables.append(Table(["method", "ms (median)", "MDE/s"] + [f"x vs {b}" for b in present], rows,
+                                f"speed on {target} ({w}x{h}, {d} disparities) at {t_top} thread(s); ratio = baseline ms / method ms"))
+    return sec
+
+
 def _machine_section(report: Mapping[str, Any]) -> Section:
     m = report["machine"]
     cfg = report["config"]
@@ -345,7 +377,7 @@ def write_report(report: dict[str, Any], arrays: Mapping[str, Any], out_dir: Pat
     else:
         report.setdefault("notes", []).append("figures switched off (--no-figures)")
     report["figures"] = figs
-    sections = [_machine_section(report), _methods_section(report)]
+    sections = [_summary_section(report), _machine_section(report), _methods_section(report)]
     sections += _accuracy_sections(report, figs)
     sections.append(_speed_section(report, figs))
     sections.append(_memory_section(report))
