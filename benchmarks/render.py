@@ -285,12 +285,16 @@ def _objects_sections(report: Mapping[str, Any]) -> list[Section]:
     sec = Section("Object distance error")
     if not dist:
         sec.paragraphs.append("Not measured in this run.")
+    out.append(sec)
     for scene, d in dist.items():
+        ssec = Section(f"Distances on {scene}", level=3)
+        out.append(ssec)
         if not d.get("available"):
-            sec.paragraphs.append(f"{scene}: not available: {d.get('reason')}")
+            ssec.paragraphs.append(f"Not available: {d.get('reason')}")
             continue
         methods = list(dict.fromkeys(k for o in d["objects"] for k in o["methods"]))
-        sec.paragraphs.append(f"{scene}: detector {d['model']}; reference: {d['reference']}. Cells: fused distance m (error %).")
+        ssec.paragraphs.append(f"Detector {d['model']}; reference: {d['reference']}. Cells: fused distance m (error %); "
+                               "the fusion is `stereo_classic.localize` on each method's disparity.")
         trows = []
         for o in d["objects"]:
             cells = [f"{o['label']} {o['confidence']:.2f}", fmt(o["reference_m"])]
@@ -308,8 +312,7 @@ def _objects_sections(report: Mapping[str, Any]) -> list[Section]:
             errs = [o["methods"][m]["error_pct"] for o in d["objects"] if "error_pct" in o["methods"].get(m, {})]
             mean_row.append(f"{np.mean(errs):.1f} ({len(errs)}/{len(d['objects'])})" if errs else "n/a")
         trows.append(mean_row)
-        sec.tables.append(Table(["object", "reference m"] + methods, trows, scene))
-    out.append(sec)
+        ssec.tables.append(Table(["object", "reference m"] + methods, trows))
     return out
 
 
