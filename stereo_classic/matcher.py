@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -351,7 +352,8 @@ def _border_mask(shape: tuple[int, int], params: SGMParams) -> np.ndarray:
     return (x - params.max_disparity < 0) | (x - params.min_disparity > width - 1)
 
 
-def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None = None) -> DisparityMap:
+def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None = None,
+           workspace: Any = None) -> DisparityMap:
     t0 = time.perf_counter()
     left_arr, right_arr = _check_pair(left, right, params)
     _check_penalties(params)
@@ -370,7 +372,8 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         num_disparities=params.num_disparities, block_size=params.block_size, census_window=params.census_window,
         p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.adaptive_p2,
         uniqueness=params.uniqueness / 100.0, lr_check=params.lr_check, subpixel=params.subpixel,
-        threads=params.threads if params.threads is not None else (os.cpu_count() or 1))
+        threads=params.threads if params.threads is not None else (os.cpu_count() or 1),
+        **({} if workspace is None else {"workspace": workspace}))
     t2 = time.perf_counter()
 
     disparity = np.asarray(disparity, dtype=np.float32)
@@ -449,7 +452,13 @@ def compute_disparity(left: Any, right: Any, params: SGMParams | None = None, **
 
 
 class StereoMatcher:
-    """Holds parameters for a sequence of frames; checks the memory budget once per image size.
+    """Holds parameters for a sequence of frames and reuses what it can between frames of one size.
+
+    Per image size and dtype the memory budget is checked once; the kernels' sum volume and row
+    buffers (about ``2 * H * W * num_disparities`` bytes) are kept and reused, which saves their
+    allocation and page faults on every frame. The buffers stay allocated while the matcher lives
+    (they are replaced when the image size changes). Safe to share between threads: a call that
+    finds the buffers busy allocates its own.
 
     >>> matcher = StereoMatcher(num_disparities=128)        # doctest: +SKIP
     >>> for left, right in frames:                          # doctest: +SKIP
@@ -459,6 +468,8 @@ class StereoMatcher:
     def __init__(self, params: SGMParams | None = None, **overrides: Any) -> None:
         self._params = _resolve_params(params, overrides)
         self._memory_checked: set[tuple[tuple[int, ...], np.dtype]] = set()
+        self._workspace: Any = None
+        self._lock = threading.Lock()
 
     @property
     def params(self) -> SGMParams:
@@ -467,7 +478,20 @@ class StereoMatcher:
 
     def compute(self, left: Any, right: Any) -> DisparityMap:
         """Disparity of one rectified pair; see ``compute_disparity``."""
-        return _match(left, right, self._params, self._memory_checked)
+        if not self._lock.acquire(blocking=False):  # another thread is using the buffers
+            return _match(left, right, self._params, self._memory_checked)
+        try:
+            if self._workspace is None:
+                workspace_cls = getattr(_core(), "Workspace", None)
+                self._workspace = workspace_cls() if workspace_cls is not None else False
+            return _match(left, right, self._params, self._memory_checked, self._workspace or None)
+        finally:
+            self._lock.release()
+
+    def release(self) -> None:
+        """Free the buffers kept between frames (the next frame allocates them again)."""
+        with self._lock:
+            self._workspace = None
 
     def __repr__(self) -> str:
         return f"StereoMatcher({self._params!r})"

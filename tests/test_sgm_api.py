@@ -235,6 +235,36 @@ class TestComputeDisparity:
             assert (v["failed_lr"] > 0) == (lr_check is not None)
             assert (v["failed_uniqueness"] > 0) == (uniqueness > 0)
 
+    def test_stereo_matcher_reuses_kernel_buffers(self):
+        left, right = _shift_pair(seed=4)
+        m = StereoMatcher(num_disparities=16)
+        first = m.compute(left, right)
+        workspace = m._workspace
+        assert workspace and workspace.nbytes >= 2 * left.size * 16  # sum volume kept
+        kept = workspace.S
+        second = m.compute(left, right)
+        assert m._workspace.S is kept  # same size: reused, results unchanged and not shared
+        np.testing.assert_array_equal(first.disparity, second.disparity)
+        assert first.disparity is not second.disparity and not np.shares_memory(first.disparity, kept)
+        other = m.compute(left[:, :80], right[:, :80])  # new size: new buffers, same answer as a fresh call
+        np.testing.assert_array_equal(other.disparity,
+                                      compute_disparity(left[:, :80], right[:, :80], num_disparities=16).disparity)
+        np.testing.assert_array_equal(m.compute(left, right).disparity, first.disparity)
+        m.release()
+        assert m._workspace is None
+        np.testing.assert_array_equal(m.compute(left, right).disparity, first.disparity)
+
+    def test_stereo_matcher_threads(self):
+        from concurrent.futures import ThreadPoolExecutor
+
+        left, right = _shift_pair(seed=6)
+        m = StereoMatcher(num_disparities=16, threads=1)
+        expected = compute_disparity(left, right, num_disparities=16, threads=1).disparity
+        with ThreadPoolExecutor(3) as pool:
+            maps = list(pool.map(lambda _: m.compute(left, right), range(6)))
+        for dmap in maps:
+            np.testing.assert_array_equal(dmap.disparity, expected)
+
     def test_fill_holes_option_makes_map_denser(self):
         left, right = _shift_pair(shift=9)
         sparse = compute_disparity(left, right, num_disparities=16, uniqueness=5)
