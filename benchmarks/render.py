@@ -24,7 +24,7 @@ from benchmarks.report import (
     write_text_atomic,
 )
 
-__all__ = ["write_report", "REPORT_FILES"]
+__all__ = ["write_report", "summary_markdown", "REPORT_FILES"]
 
 log = logging.getLogger("benchmarks")
 
@@ -393,3 +393,30 @@ def write_report(report: dict[str, Any], arrays: Mapping[str, Any], out_dir: Pat
     write_text_atomic(out_dir / "report.html", render_html(_TITLE, sections, out_dir))
     return [out_dir / f for f in REPORT_FILES] + [out_dir / f for f in figs.values()]
 
+
+def summary_markdown(report: Mapping[str, Any]) -> str:
+    """The summary tables (mean accuracy, speed ratios) of a report.json as Markdown, with the machine line.
+
+    ``python -m benchmarks.render bench_out/report.json`` prints it (for the README's results table).
+    """
+    m = report["machine"]
+    sec = _summary_section(report)
+    sec.paragraphs.insert(0, f"Measured {m['date_utc']} UTC on {m['cpu_model']} ({m['usable_cpus']} CPUs), OpenCV "
+                             f"{m['versions'].get('cv2')}, numba {m['versions'].get('numba')}, commit `{m.get('git_commit')}`, "
+                             f"with `{' '.join(report['command'])}`.")
+    return render_markdown("Results", [sec]).split("\n", 2)[2]
+
+
+if __name__ == "__main__":
+    import json
+    import sys
+
+    if len(sys.argv) != 2:
+        print("usage: python -m benchmarks.render REPORT.json", file=sys.stderr)
+        sys.exit(2)
+    try:
+        data = json.loads(Path(sys.argv[1]).read_text(encoding="utf-8"))
+        print(summary_markdown(data))
+    except (OSError, ValueError, KeyError) as exc:
+        print(f"error: {sys.argv[1]}: {exc}", file=sys.stderr)
+        sys.exit(1)

@@ -12,6 +12,7 @@ import pytest
 
 from benchmarks.__main__ import main
 from benchmarks.methods import default_methods
+from benchmarks.render import summary_markdown
 from benchmarks.scenes import BenchScene, disparity_range, parse_size, speed_inputs
 from benchmarks.timing import mde_per_s, time_interleaved
 
@@ -76,6 +77,8 @@ def test_cli_on_tsukuba_with_onnx_network(shared_data, tmp_path):
     assert set(mem) == {m for m in expected if any(x["name"] == m and x["available"] for x in report["methods"])}
     assert all("error" in r or r["peak_rss_mb"] > 0 for r in mem.values())
     assert report["detectors"]["available"] is False  # no models folder given
+    summary = summary_markdown(report)
+    assert "| sc-default |" in summary and "x vs ocv-hh" in summary and report["machine"]["date_utc"] in summary
 
 
 def test_cli_on_builtin_demo_without_data(tmp_path, monkeypatch):
