@@ -582,7 +582,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
 
 def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_disparity: int = 0,
               num_disparities: int = 64, block_size: int = 5, census_window: tuple[int, int] = (9, 7),
-              p1: int = 10, p2: int = 120, paths: int = 8, adaptive_p2: bool = False,
+              p1: int = 20, p2: int = 80, paths: int = 8, adaptive_p2: bool = False,
               uniqueness: float = 0.0, lr_check: float | None = 1.0, subpixel: bool = True,
               threads: int = 2, workspace: Workspace | None = None
               ) -> tuple[np.ndarray, np.ndarray | None, dict[str, float]]:
@@ -629,7 +629,7 @@ def sum_volume(left: np.ndarray, right: np.ndarray, *, path_mask: int = ALL_PATH
     """Test entry: the (H, W, D) int16 sum over the directions in ``path_mask`` (see PATH_NAMES),
     computed by the same fused passes as ``sgm_match``. Keyword args as ``sgm_match``."""
     kw = dict(cost="census", min_disparity=0, num_disparities=64, block_size=5, census_window=(9, 7),
-              p1=10, p2=120, adaptive_p2=False, uniqueness=0.0, lr_check=1.0, subpixel=True)
+              p1=20, p2=80, adaptive_p2=False, uniqueness=0.0, lr_check=1.0, subpixel=True)
     kw.update(kwargs)
     _, _, S, _ = _run(left, right, path_mask=path_mask, threads=threads, keep_sums=True, **kw)
     return S
@@ -637,7 +637,7 @@ def sum_volume(left: np.ndarray, right: np.ndarray, *, path_mask: int = ALL_PATH
 
 def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_disparity: int = 0,
                 num_disparities: int = 64, block_size: int = 5, census_window: tuple[int, int] = (9, 7),
-                p2: int = 120) -> np.ndarray:
+                p2: int = 80) -> np.ndarray:
     """(H, W, D) int16 matching cost, entry [y, x, k] for disparity min_disparity + k.
 
     Exactly the costs the fused passes use (SAD scaled by ``cost_scale``, which depends on p2);

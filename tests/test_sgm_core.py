@@ -1,0 +1,350 @@
+"""The numba SGM kernels against the slow numpy reference, exactly, plus synthetic ground truth.
+
+Small random images keep the pure-Python reference fast. Real-scene checks live in
+test_sgm_core_scenes.py.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from stereo_classic import _sgm_core as core
+from stereo_classic import _sgm_reference as ref
+
+P1, P2 = 10, 120
+
+
+def _pair(seed: int, h: int = 12, w: int = 22, shift: int = 3, noise: int = 12):
+    """A random left image and a right image made from it with a global shift plus noise."""
+    rng = np.random.default_rng(seed)
+    left = rng.integers(0, 256, (h, w), dtype=np.uint8)
+    right = np.roll(left, -shift, axis=1).astype(np.int64)
+    right[:, w - shift:] = rng.integers(0, 256, (h, shift))
+    right = np.clip(right + rng.integers(-noise, noise + 1, right.shape), 0, 255).astype(np.uint8)
+    return np.ascontiguousarray(left), np.ascontiguousarray(right)
+
+
+def _textured(h: int, w: int, seed: int) -> np.ndarray:
+    """Smooth random texture (float, 0..255): sums of random sinusoids, no repetition at small scale."""
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[0:h, 0:w].astype(np.float64)
+    img = np.zeros((h, w))
+    for _ in range(40):
+        fx, fy = rng.uniform(0.05, 0.9, 2) * rng.choice([-1, 1], 2)
+        img += rng.uniform(0.3, 1.0) * np.sin(fx * x + fy * y + rng.uniform(0, 2 * np.pi))
+    img -= img.min()
+    return img / img.max() * 255.0
+
+
+def _sample_rows(img: np.ndarray, xs: np.ndarray) -> np.ndarray:
+    """img sampled at float column positions xs (H, W) with linear interpolation, per row."""
+    h, w = img.shape
+    out = np.empty(xs.shape)
+    cols = np.arange(w)
+    for y in range(h):
+        out[y] = np.interp(xs[y], cols, img[y])
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# cost volume
+
+
+@pytest.mark.parametrize("cost", ["census", "sad"])
+@pytest.mark.parametrize("dmin, D", [(0, 8), (-3, 8), (2, 16), (5, 30)])
+def test_cost_volume_matches_reference(cost, dmin, D):
+    left, right = _pair(1)
+    kw = dict(cost=cost, min_disparity=dmin, num_disparities=D, block_size=5, census_window=(9, 7), p2=P2)
+    got = core.cost_volume(left, right, **kw)
+    want = ref.cost_volume_reference(left, right, **kw)
+    assert got.dtype == np.int16 and got.shape == left.shape + (D,)
+    np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("census_window", [(5, 5), (7, 5), (9, 7), (3, 3)])
+def test_census_windows_match_reference(census_window):
+    left, right = _pair(2)
+    kw = dict(cost="census", min_disparity=0, num_disparities=8, census_window=census_window, p2=P2)
+    np.testing.assert_array_equal(core.cost_volume(left, right, **kw), ref.cost_volume_reference(left, right, **kw))
+
+
+@pytest.mark.parametrize("block_size", [1, 3, 7])
+def test_sad_block_sizes_match_reference(block_size):
+    left, right = _pair(3, h=9, w=16)
+    kw = dict(cost="sad", min_disparity=-1, num_disparities=6, block_size=block_size, p2=P2)
+    np.testing.assert_array_equal(core.cost_volume(left, right, **kw), ref.cost_volume_reference(left, right, **kw))
+
+
+def test_census_is_invariant_to_gain_and_offset():
+    left, _ = _pair(4)
+    bright = np.clip(left.astype(np.float64) * 1.3 + 20, 0, 255).astype(np.uint8)
+    # where nothing saturates, the order of intensities (and so every census bit) is unchanged
+    a = core.cost_volume(left, left, num_disparities=4)
+    b = core.cost_volume(left, bright, num_disparities=4)
+    ok = (left.astype(np.float64) * 1.3 + 20 <= 255).all()
+    assert not ok or np.array_equal(a, b)
+    assert (a[:, :, 0] == 0).all()  # a pixel against itself
+
+
+# ---------------------------------------------------------------------------------------------
+# aggregation: every direction, exactly
+
+
+@pytest.mark.parametrize("cost", ["census", "sad"])
+@pytest.mark.parametrize("direction", range(8))
+@pytest.mark.parametrize("dmin, D", [(0, 8), (-3, 12)])
+def test_each_direction_matches_reference(cost, direction, dmin, D):
+    left, right = _pair(10 + direction)
+    kw = dict(cost=cost, min_disparity=dmin, num_disparities=D, block_size=5, census_window=(9, 7))
+    shift, _ = core.cost_scale(cost, 5, (9, 7), P2)
+    C = ref.cost_volume_reference(left, right, p2=P2, **kw)
+    want = ref.path_reference(C, direction, P1 >> shift, P2 >> shift)
+    got = core.sum_volume(left, right, path_mask=1 << direction, p1=P1, p2=P2, **kw)
+    np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("direction", [0, 2, 5, 7])
+def test_adaptive_p2_direction_matches_reference(direction):
+    left, right = _pair(20 + direction)
+    C = ref.cost_volume_reference(left, right, num_disparities=10, p2=P2)
+    want = ref.path_reference(C, direction, P1, P2, image=left)
+    got = core.sum_volume(left, right, path_mask=1 << direction, num_disparities=10, p1=P1, p2=P2, adaptive_p2=True)
+    np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("mask", [core.ALL_PATHS, core.FOUR_PATHS, 0b10100101])
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("shape", [(12, 22), (1, 19), (2, 9), (7, 40)])
+def test_path_sums_match_reference(mask, threads, shape):
+    left, right = _pair(30, h=shape[0], w=shape[1], shift=2)
+    C = ref.cost_volume_reference(left, right, min_disparity=-2, num_disparities=9, p2=P2)
+    want = ref.sum_reference(C, mask, P1, P2)
+    got = core.sum_volume(left, right, path_mask=mask, threads=threads, min_disparity=-2, num_disparities=9,
+                          p1=P1, p2=P2)
+    np.testing.assert_array_equal(got, want)
+
+
+def test_sums_stay_inside_int16_at_the_largest_p2():
+    # worst case for the bounds: no texture on one side, maximum-cost noise on the other, largest p2
+    rng = np.random.default_rng(5)
+    left = rng.integers(0, 256, (10, 30), dtype=np.uint8)
+    right = np.zeros_like(left)
+    for cost, p2 in [("census", 1344), ("sad", 5000)]:
+        core.check_penalties(cost, 5, (9, 7), 100, p2)
+        C = ref.cost_volume_reference(left, right, cost=cost, num_disparities=12, p2=p2)
+        shift, _ = core.cost_scale(cost, 5, (9, 7), p2)
+        want = ref.sum_reference(C, core.ALL_PATHS, 100 >> shift, p2 >> shift)
+        assert want.max() <= 32767
+        got = core.sum_volume(left, right, cost=cost, num_disparities=12, p1=100, p2=p2)
+        np.testing.assert_array_equal(got, want)
+
+
+# ---------------------------------------------------------------------------------------------
+# selection: WTA, uniqueness, subpixel, right view, LR check
+
+
+@pytest.mark.parametrize("dmin, D", [(0, 8), (-3, 8), (2, 16)])
+@pytest.mark.parametrize("uniqueness, lr_check, subpixel", [
+    (0.0, 1.0, True), (0.1, None, True), (0.05, 0.0, False), (0.0, 2.0, True), (0.3, 1.0, True)])
+@pytest.mark.parametrize("threads", [1, 2])
+def test_selection_matches_reference(dmin, D, uniqueness, lr_check, subpixel, threads):
+    left, right = _pair(40, h=11, w=26)
+    kw = dict(min_disparity=dmin, num_disparities=D, p1=P1, p2=P2)
+    S = core.sum_volume(left, right, **kw)
+    d, dr, timings = core.sgm_match(left, right, uniqueness=uniqueness, lr_check=lr_check, subpixel=subpixel,
+                                    threads=threads, **kw)
+    wd, wdr = ref.select_reference(S, dmin, uniqueness=uniqueness, lr_check=lr_check, subpixel=subpixel)
+    assert d.dtype == np.float32 and d.shape == left.shape and dr.shape == left.shape
+    np.testing.assert_array_equal(d, wd)
+    np.testing.assert_array_equal(dr, wdr)
+    assert set(timings) >= {"cost", "aggregate", "select"}
+
+
+def test_filters_only_remove_pixels():
+    left, right = _pair(41, h=14, w=30)
+    base, _, _ = core.sgm_match(left, right, num_disparities=10, lr_check=None, uniqueness=0.0)
+    for kw in [dict(lr_check=0.0), dict(uniqueness=0.2), dict(lr_check=1.0, uniqueness=0.1)]:
+        d, _, _ = core.sgm_match(left, right, num_disparities=10, **{"lr_check": None, **kw})
+        kept = np.isfinite(d)
+        assert np.isnan(d).sum() >= np.isnan(base).sum()
+        np.testing.assert_array_equal(d[kept], base[kept])
+    assert np.isfinite(base).all()  # no filter, positive range: every pixel has a candidate
+
+
+def test_sad_and_four_paths_run_end_to_end():
+    left, right = _pair(42, h=20, w=40, shift=4, noise=0)
+    for cost in ("census", "sad"):
+        for paths in (4, 8):
+            d, dr, _ = core.sgm_match(left, right, cost=cost, paths=paths, num_disparities=8, p1=P1 if cost == "census" else 200,
+                                      p2=P2 if cost == "census" else 800)
+            inner = d[3:-3, 12:-6]
+            assert np.nanmedian(inner) == pytest.approx(4, abs=0.5), (cost, paths)
+
+
+# ---------------------------------------------------------------------------------------------
+# borders
+
+
+def test_left_border_uses_the_range_that_fits():
+    left, right = _pair(50, h=16, w=48, shift=5, noise=0)
+    d, dr, _ = core.sgm_match(left, right, num_disparities=24, lr_check=None)
+    x = np.arange(48)
+    # never a disparity whose match lies left of the right image, and no blanket NaN band
+    assert np.all(np.isnan(d) | (d <= x[None, :] + 0.5))
+    assert np.isfinite(d[:, :24]).mean() > 0.9
+    assert np.isfinite(d[:, 0]).all() and np.all(d[:, 0] <= 0.5)
+    # right view: right pixel xr can only take disparities whose left pixel xr + d is inside
+    assert np.all(np.isnan(dr) | (x[None, :] + dr <= 47))
+
+
+def test_no_candidate_columns_are_nan():
+    left, right = _pair(51, h=8, w=20)
+    d, dr, _ = core.sgm_match(left, right, min_disparity=5, num_disparities=4, lr_check=None)
+    assert np.isnan(d[:, :5]).all() and np.isfinite(d[:, 5:]).all()
+    d, dr, _ = core.sgm_match(left, right, min_disparity=-6, num_disparities=4, lr_check=None)
+    # x - d must be <= 19 with d <= -3: columns 17..19 have no candidate
+    assert np.isnan(d[:, 17:]).all() and np.isfinite(d[:, :17]).all()
+
+
+# ---------------------------------------------------------------------------------------------
+# synthetic pairs with known disparity
+
+
+@pytest.mark.parametrize("cost", ["census", "sad"])
+@pytest.mark.parametrize("disparity", [0, 7, 13])
+def test_constant_disparity_recovered_exactly(cost, disparity):
+    tex = _textured(40, 120, seed=disparity)
+    left = np.round(tex).astype(np.uint8)
+    right = np.round(_sample_rows(tex, np.arange(120)[None, :].repeat(40, 0) + disparity)).astype(np.uint8)
+    p = dict(p1=P1, p2=P2) if cost == "census" else dict(p1=200, p2=800)
+    d, _, _ = core.sgm_match(left, right, cost=cost, num_disparities=32, lr_check=1.0, **p)
+    inner = d[5:-5, 32:-8]
+    assert np.isfinite(inner).all()
+    np.testing.assert_array_equal(np.round(inner), disparity)
+    assert np.abs(inner - disparity).mean() < 0.1
+
+
+def test_step_disparity_recovered_in_the_interior():
+    h, w = 48, 140
+    tex = _textured(h, w + 40, seed=7)
+    d_true = np.where(np.arange(w) < 70, 6.0, 14.0)[None, :].repeat(h, 0)
+    # left pixel x shows the scene point seen at right pixel x - d: build the right image from that
+    left = np.round(tex[:, :w]).astype(np.uint8)
+    right_f = np.zeros((h, w))
+    for y in range(h):
+        xs = np.arange(w)
+        for x in range(w):
+            xr = x - int(d_true[y, x])
+            if 0 <= xr < w:
+                right_f[y, xr] = tex[y, x]
+    # fill right-image pixels no left pixel maps to (occluded in the left view) with other texture
+    holes = right_f == 0
+    right_f[holes] = tex[:, 20:20 + w][holes]
+    right = np.round(right_f).astype(np.uint8)
+    d, _, _ = core.sgm_match(left, right, num_disparities=32, p1=P1, p2=P2, lr_check=1.0)
+    interior = np.zeros((h, w), bool)
+    interior[5:-5, 24:62] = True
+    interior[5:-5, 84:-6] = True
+    got = d[interior]
+    assert np.isfinite(got).mean() > 0.99
+    np.testing.assert_array_equal(np.round(got[np.isfinite(got)]), d_true[interior][np.isfinite(got)])
+
+
+@pytest.mark.parametrize("cost, p1, p2", [("census", 20, 80), ("sad", 200, 800)])
+def test_slanted_plane_subpixel_error_below_a_tenth_of_a_pixel(cost, p1, p2):
+    h, w = 60, 200
+    tex = _textured(h, w, seed=11)
+    x = np.arange(w, dtype=np.float64)[None, :].repeat(h, 0)
+    d_true = 8.0 + 0.1 * x  # left-view disparity of a slanted plane: 8 .. 28 px
+    # right pixel xr sees the left pixel x with x - d(x) = xr  =>  x = (xr + 8) / 0.9
+    right = np.round(_sample_rows(tex, (x + 8.0) / 0.9)).astype(np.uint8)
+    left = np.round(tex).astype(np.uint8)
+    kw = dict(cost=cost, num_disparities=48, p1=p1, p2=p2, lr_check=1.0)
+    d, _, _ = core.sgm_match(left, right, subpixel=True, **kw)
+    inner = (slice(6, -6), slice(50, -10))
+    err = np.abs(d[inner] - d_true[inner])
+    assert np.isfinite(err).mean() > 0.99
+    assert np.nanmean(err) < 0.1  # measured: census 0.076, SAD 0.080
+    d0, _, _ = core.sgm_match(left, right, subpixel=False, **kw)
+    assert np.nanmean(np.abs(d0[inner] - d_true[inner])) > 0.2  # integer disparities: about 0.25
+
+
+# ---------------------------------------------------------------------------------------------
+# parameters, errors, memory
+
+
+def test_bad_parameters_raise_value_errors():
+    left, right = _pair(60)
+    with pytest.raises(ValueError, match="paths"):
+        core.sgm_match(left, right, paths=3)
+    with pytest.raises(ValueError, match="cost"):
+        core.sgm_match(left, right, cost="ncc")
+    with pytest.raises(ValueError, match="p2"):
+        core.sgm_match(left, right, p1=10, p2=5000)
+    with pytest.raises(ValueError, match="p1"):
+        core.check_penalties("census", 5, (9, 7), 50, 20)
+    with pytest.raises(ValueError, match="cost"):
+        core.cost_volume(left, right, cost="zncc")
+
+
+@pytest.mark.parametrize("cost", ["census", "sad"])
+def test_largest_allowed_p2_is_accepted_and_next_refused(cost):
+    limit = None
+    for p2 in range(100, 20000, 1):
+        try:
+            core.check_penalties(cost, 5, (9, 7), 1, p2)
+        except ValueError:
+            limit = p2 - 1
+            break
+    if cost == "census":
+        assert limit == 1344
+    else:
+        assert limit is None  # SAD scales with the penalties: any p2 fits
+
+
+def test_memory_bytes_counts_the_sum_volume():
+    H, W, D = 375, 1242, 128
+    n = core.memory_bytes(H, W, D)
+    assert 2 * H * W * D < n < 3 * H * W * D
+    assert core.memory_bytes(H, W, 2 * D) > n
+    assert core.memory_bytes(H, W, D, cost="sad", block_size=7) > 2 * H * W * D
+
+
+def test_workspace_is_reused_and_gives_identical_results():
+    left, right = _pair(61, h=20, w=40)
+    ws = core.Workspace()
+    a = core.sgm_match(left, right, num_disparities=16, workspace=ws)[0]
+    S_id = id(ws.S)
+    b = core.sgm_match(left, right, num_disparities=16, workspace=ws)[0]
+    assert id(ws.S) == S_id and ws.nbytes > 0
+    c = core.sgm_match(left, right, num_disparities=8, workspace=ws)[0]  # other size: new buffers
+    np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(c, core.sgm_match(left, right, num_disparities=8)[0])
+    ws.release()
+    assert ws.nbytes == 0
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(h=st.integers(1, 9), w=st.integers(1, 24), dmin=st.integers(-6, 6), D=st.integers(1, 20),
+       cost=st.sampled_from(["census", "sad"]), paths=st.sampled_from([4, 8]), seed=st.integers(0, 2**16),
+       lr=st.sampled_from([None, 0.0, 1.0]), uniq=st.sampled_from([0.0, 0.15]))
+def test_random_shapes_give_well_formed_results(h, w, dmin, D, cost, paths, seed, lr, uniq):
+    rng = np.random.default_rng(seed)
+    left = rng.integers(0, 256, (h, w), dtype=np.uint8)
+    right = rng.integers(0, 256, (h, w), dtype=np.uint8)
+    p = dict(p1=P1, p2=P2) if cost == "census" else dict(p1=200, p2=800)
+    d, dr, _ = core.sgm_match(left, right, cost=cost, min_disparity=dmin, num_disparities=D, paths=paths,
+                              lr_check=lr, uniqueness=uniq, **p)
+    assert d.shape == (h, w) and d.dtype == np.float32 and dr.shape == (h, w)
+    ok = np.isfinite(d)
+    assert not np.isinf(d).any()
+    assert np.all(d[ok] >= dmin - 0.5) and np.all(d[ok] <= dmin + D - 1 + 0.5)
+    x = np.arange(w)[None, :].repeat(h, 0)
+    assert np.all(x[ok] - np.round(d[ok]) >= -0.5) and np.all(x[ok] - np.round(d[ok]) <= w - 0.5)
+    if paths == 8 and lr is None and uniq == 0.0:
+        S = core.sum_volume(left, right, cost=cost, min_disparity=dmin, num_disparities=D, **p)
+        want, _ = ref.select_reference(S, dmin, uniqueness=0.0, lr_check=None)
+        np.testing.assert_array_equal(d, want)
