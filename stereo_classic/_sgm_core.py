@@ -54,7 +54,7 @@ from ._sgm_cost import (
     sad_pixel_cost,
     sad_prefilter,
 )
-from ._sgm_intrinsics import add16, and16, min16, sub16
+from ._sgm_intrinsics import add16, and16, min16, popcnt16, sub16
 
 __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "check_penalties", "cost_scale", "ALL_PATHS", "PATH_NAMES"]
 
@@ -118,148 +118,9 @@ def _p2_at(limg, y, x, yp, xp, p1, p2, adaptive):  # pragma: no cover - numba
 
 
 @njit(cache=True, nogil=True)
-def _select_pixel(Sf, sb, m, k_lo, k_hi, x, W, dmin, uniq, subpix, rv, rd, forward):  # pragma: no cover
-    """WTA + uniqueness + subpixel for one complete sum vector Sf[sb:sb + D] whose minimum is m
-    (taken over all k: invalid k always sum higher than valid ones). Also updates the right view
-    rv/rd at q = W - 1 - x + k (ties keep the smallest k whatever the x order). Returns (disparity
-    or NaN, best k)."""
-    big = np.int16(_INT16_MAX)
-    n = k_hi - k_lo + 1
-    b0 = sb + k_lo
-    bi = big
-    for i in range(n):
-        bi = min16(bi, np.int16(i) if Sf[_U(b0 + i)] == m else big)
-    b = k_lo + np.int64(bi)
-    q0 = W - 1 - x + k_lo
-    if forward:
-        for i in range(n):
-            v = Sf[_U(b0 + i)]
-            old = rv[_U(q0 + i)]
-            lt = v < old
-            rv[_U(q0 + i)] = v if lt else old
-            rd[_U(q0 + i)] = np.int16(k_lo + i) if lt else rd[_U(q0 + i)]
-    else:
-        for i in range(n):
-            v = Sf[_U(b0 + i)]
-            old = rv[_U(q0 + i)]
-            le = v <= old
-            rv[_U(q0 + i)] = v if le else old
-            rd[_U(q0 + i)] = np.int16(k_lo + i) if le else rd[_U(q0 + i)]
-    if uniq > 0.0:
-        m2 = big
-        for k in range(k_lo, b - 1):
-            m2 = min16(m2, Sf[_U(sb + k)])
-        for k in range(b + 2, k_hi + 1):
-            m2 = min16(m2, Sf[_U(sb + k)])
-        if m2 < big and np.float64(m2) * (1.0 - uniq) < np.float64(m):
-            return np.float32(np.nan), b
-    off = 0.0
-    if subpix and b - 1 >= k_lo and b + 1 <= k_hi:
-        sm = np.int64(Sf[_U(sb + b - 1)])
-        sp = np.int64(Sf[_U(sb + b + 1)])
-        den = sm + sp - 2 * np.int64(m)
-        if den > 0:
-            off = (sm - sp) / (2.0 * den)
-    return np.float32(dmin + b + off), b
-
-
-@njit(cache=True, nogil=True)
 def _lr(P, rb, c, m, q, p1, k):  # pragma: no cover - numba
     """New path value at disparity k from the previous vector at P[rb:rb + D + 2] (min m, m + P2 = q)."""
     return add16(sub16(c, m), min16(min16(P[_U(rb + 1 + k)], add16(min16(P[_U(rb + k)], P[_U(rb + 2 + k)]), p1)), q))
-
-
-@njit(cache=True, nogil=True)
-def _agg4(C, PH, PV, PA, PB, Sf, sb, dst, db, wh, wv, wa, wb, mh, mv, ma, mb, qh, qv, qa, qb,
-          p1, mk0, mk1, mk2, mk3, D, accumulate):  # pragma: no cover - numba
-    """The 4 paths of one pass at one pixel, in one vectorised loop over the disparities.
-
-    Each path writes its new vector at (array, write base) and reads the previous one from the next
-    slot of the same array (see sgm_pass); the horizontal path alternates between slots 0 and 1.
-    (At most 30 arguments: beyond that CPython passes *args, which numba cannot inline.) The (masked) sum of the 4 new
-    vectors is stored into Sf[sb:sb + D], or, when accumulating, added to it and written to
-    dst[db:db + D] (Sf itself, or a scratch vector when the complete sums need not be kept).
-    Returns the 4 new minima and the minimum of the complete sum (only when accumulating).
-    """
-    E = D + 2
-    rh = E - wh
-    rv = wv + E
-    ra = wa + E
-    rb = wb + E
-    nh = np.int16(_INT16_MAX)
-    nv = nh
-    na = nh
-    nb = nh
-    ns = nh
-    if accumulate:
-        for k in range(D):
-            c = C[k]
-            vh = _lr(PH, rh, c, mh, qh, p1, k)
-            vv = _lr(PV, rv, c, mv, qv, p1, k)
-            va = _lr(PA, ra, c, ma, qa, p1, k)
-            vb = _lr(PB, rb, c, mb, qb, p1, k)
-            PH[_U(wh + 1 + k)] = vh
-            PV[_U(wv + 1 + k)] = vv
-            PA[_U(wa + 1 + k)] = va
-            PB[_U(wb + 1 + k)] = vb
-            nh = min16(nh, vh)
-            nv = min16(nv, vv)
-            na = min16(na, va)
-            nb = min16(nb, vb)
-            sm = add16(add16(add16(and16(vh, mk0), and16(vv, mk1)), add16(and16(va, mk2), and16(vb, mk3))), Sf[_U(sb + k)])
-            dst[_U(db + k)] = sm
-            ns = min16(ns, sm)
-    else:
-        for k in range(D):
-            c = C[k]
-            vh = _lr(PH, rh, c, mh, qh, p1, k)
-            vv = _lr(PV, rv, c, mv, qv, p1, k)
-            va = _lr(PA, ra, c, ma, qa, p1, k)
-            vb = _lr(PB, rb, c, mb, qb, p1, k)
-            PH[_U(wh + 1 + k)] = vh
-            PV[_U(wv + 1 + k)] = vv
-            PA[_U(wa + 1 + k)] = va
-            PB[_U(wb + 1 + k)] = vb
-            nh = min16(nh, vh)
-            nv = min16(nv, vv)
-            na = min16(na, va)
-            nb = min16(nb, vb)
-            Sf[_U(sb + k)] = add16(add16(and16(vh, mk0), and16(vv, mk1)), add16(and16(va, mk2), and16(vb, mk3)))
-    return nh, nv, na, nb, ns
-
-
-@njit(cache=True, nogil=True)
-def _agg2(C, PH, PV, Sf, sb, dst, db, wh, wv, mh, mv, qh, qv, p1, mk0, mk1, D, accumulate):  # pragma: no cover
-    """Like _agg4 for the horizontal and vertical paths only (paths=4)."""
-    E = D + 2
-    rh = E - wh
-    rv = wv + E
-    nh = np.int16(_INT16_MAX)
-    nv = nh
-    ns = nh
-    if accumulate:
-        for k in range(D):
-            c = C[k]
-            vh = _lr(PH, rh, c, mh, qh, p1, k)
-            vv = _lr(PV, rv, c, mv, qv, p1, k)
-            PH[_U(wh + 1 + k)] = vh
-            PV[_U(wv + 1 + k)] = vv
-            nh = min16(nh, vh)
-            nv = min16(nv, vv)
-            sm = add16(add16(and16(vh, mk0), and16(vv, mk1)), Sf[_U(sb + k)])
-            dst[_U(db + k)] = sm
-            ns = min16(ns, sm)
-    else:
-        for k in range(D):
-            c = C[k]
-            vh = _lr(PH, rh, c, mh, qh, p1, k)
-            vv = _lr(PV, rv, c, mv, qv, p1, k)
-            PH[_U(wh + 1 + k)] = vh
-            PV[_U(wv + 1 + k)] = vv
-            nh = min16(nh, vh)
-            nv = min16(nv, vv)
-            Sf[_U(sb + k)] = add16(and16(vh, mk0), and16(vv, mk1))
-    return nh, nv, ns
 
 
 @njit(cache=True, nogil=True)
@@ -303,6 +164,7 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
     nan = np.float32(np.nan)
     forward = step > 0
     dst = Sf if keep_sums else Ssum
+    kidx = np.arange(D).astype(np.int16)  # int16 lane indices: keeps the index loops in 16-bit vectors
     for r in range(nrows):
         y = y_first + step * r
         v = y if forward else H - 1 - y
@@ -321,18 +183,32 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
             for q in range(rv.shape[0]):
                 rv[q] = big
                 rd[q] = minus1
+        lrow = lcode[y]
         for i in range(W):
             x = i if forward else W - 1 - i
-            # --- cost of pixel (y, x)
+            # --- cost of pixel (y, x) (census written out here: a call per pixel costs as much)
             if kind == 0:
-                census_pixel_cost(lcode[y, x], rrev, x, W, C, D)
+                lc = lrow[x]
+                j0 = W - 1 - x
+                for k in range(D):
+                    C[k] = popcnt16(lc ^ rrev[_U(j0 + k)])
             else:
                 if i == 0:
                     sad_hsum_init(hsum, colsum, x, h, D)
                 else:
                     sad_hsum_advance(hsum, colsum, x, step, h, D)
                 sad_pixel_cost(hsum, shift, cmax, C, D)
-            k_lo, k_hi = fill_invalid(C, x, W, dmin, cinv16, D)
+            # disparities whose match is outside the right image: k outside [k_lo, k_hi]
+            k_lo = x - dmin - W + 1
+            if k_lo < 0:
+                k_lo = 0
+            k_hi = x - dmin
+            if k_hi > D - 1:
+                k_hi = D - 1
+            if k_lo > 0 or k_hi < D - 1:
+                for k in range(D):
+                    if k < k_lo or k > k_hi:
+                        C[k] = cinv16
             sb = (y * W + x) * D
             db = sb if keep_sums else 0
             # --- slots: write w, read w + 1 (horizontal: alternate between slots 0 and 1)
@@ -343,7 +219,15 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
             mv = MV[wvs + 1]
             qh = add16(mh, _p2_at(limg, y, x, y, x - step, p1_16, p2_16, adaptive))
             qv = add16(mv, _p2_at(limg, y, x, y - step, x, p1_16, p2_16, adaptive))
+            wh = whs * E
+            rh = rhs * E
+            wv = wvs * E
+            rvb = wv + E
+            nh = big
+            nv = big
             ns = big
+            # The loops below are written out four times (4 or 2 paths, store or accumulate): as
+            # separate functions they are not inlined by LLVM and the call per pixel costs ~20 %.
             if four:
                 was = i - 2 * v + 2 * H
                 wbs = i + 1
@@ -351,34 +235,120 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
                 mb = MB[wbs + 1]
                 qa = add16(ma, _p2_at(limg, y, x, y - step, x - step, p1_16, p2_16, adaptive))
                 qb = add16(mb, _p2_at(limg, y, x, y - step, x + step, p1_16, p2_16, adaptive))
+                wa = was * E
+                ra = wa + E
+                wb = wbs * E
+                rb = wb + E
+                na = big
+                nb = big
                 if accumulate:
-                    nh, nv, na, nb, ns = _agg4(C, PH, PV, PA, PB, Sf, sb, dst, db, whs * E, wvs * E, was * E,
-                                               wbs * E, mh, mv, ma, mb, qh, qv, qa, qb, p1_16,
-                                               mk0, mk1, mk2, mk3, D, True)
+                    for k in range(D):
+                        c = C[k]
+                        vh = _lr(PH, rh, c, mh, qh, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
+                        va = _lr(PA, ra, c, ma, qa, p1_16, k)
+                        vb = _lr(PB, rb, c, mb, qb, p1_16, k)
+                        PH[_U(wh + 1 + k)] = vh
+                        PV[_U(wv + 1 + k)] = vv
+                        PA[_U(wa + 1 + k)] = va
+                        PB[_U(wb + 1 + k)] = vb
+                        nh = min16(nh, vh)
+                        nv = min16(nv, vv)
+                        na = min16(na, va)
+                        nb = min16(nb, vb)
+                        sm = add16(add16(add16(and16(vh, mk0), and16(vv, mk1)), add16(and16(va, mk2), and16(vb, mk3))),
+                                   Sf[_U(sb + k)])
+                        dst[_U(db + k)] = sm
+                        ns = min16(ns, sm)
                 else:
-                    nh, nv, na, nb, ns = _agg4(C, PH, PV, PA, PB, Sf, sb, dst, db, whs * E, wvs * E, was * E,
-                                               wbs * E, mh, mv, ma, mb, qh, qv, qa, qb, p1_16,
-                                               mk0, mk1, mk2, mk3, D, False)
+                    for k in range(D):
+                        c = C[k]
+                        vh = _lr(PH, rh, c, mh, qh, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
+                        va = _lr(PA, ra, c, ma, qa, p1_16, k)
+                        vb = _lr(PB, rb, c, mb, qb, p1_16, k)
+                        PH[_U(wh + 1 + k)] = vh
+                        PV[_U(wv + 1 + k)] = vv
+                        PA[_U(wa + 1 + k)] = va
+                        PB[_U(wb + 1 + k)] = vb
+                        nh = min16(nh, vh)
+                        nv = min16(nv, vv)
+                        na = min16(na, va)
+                        nb = min16(nb, vb)
+                        Sf[_U(sb + k)] = add16(add16(and16(vh, mk0), and16(vv, mk1)), add16(and16(va, mk2), and16(vb, mk3)))
                 MA[was] = na
                 MB[wbs] = nb
             else:
                 if accumulate:
-                    nh, nv, ns = _agg2(C, PH, PV, Sf, sb, dst, db, whs * E, wvs * E, mh, mv, qh, qv, p1_16,
-                                       mk0, mk1, D, True)
+                    for k in range(D):
+                        c = C[k]
+                        vh = _lr(PH, rh, c, mh, qh, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
+                        PH[_U(wh + 1 + k)] = vh
+                        PV[_U(wv + 1 + k)] = vv
+                        nh = min16(nh, vh)
+                        nv = min16(nv, vv)
+                        sm = add16(add16(and16(vh, mk0), and16(vv, mk1)), Sf[_U(sb + k)])
+                        dst[_U(db + k)] = sm
+                        ns = min16(ns, sm)
                 else:
-                    nh, nv, ns = _agg2(C, PH, PV, Sf, sb, dst, db, whs * E, wvs * E, mh, mv, qh, qv, p1_16,
-                                       mk0, mk1, D, False)
+                    for k in range(D):
+                        c = C[k]
+                        vh = _lr(PH, rh, c, mh, qh, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
+                        PH[_U(wh + 1 + k)] = vh
+                        PV[_U(wv + 1 + k)] = vv
+                        nh = min16(nh, vh)
+                        nv = min16(nv, vv)
+                        Sf[_U(sb + k)] = add16(and16(vh, mk0), and16(vv, mk1))
             MH[whs] = nh
             MV[wvs] = nv
-            # --- winner of a complete pixel
+            # --- winner of a complete pixel: WTA (first index of the minimum ns; invalid k always
+            # sum higher than valid ones), right-view update, uniqueness, parabola subpixel
             if select:
                 if k_lo > k_hi:
                     disp[y, x] = nan
                     best[x] = -1
+                    continue
+                n = k_hi - k_lo + 1
+                b0 = db + k_lo
+                bi = big
+                for j in range(n):
+                    bi = min16(bi, kidx[j] if dst[_U(b0 + j)] == ns else big)
+                bk = k_lo + np.int64(bi)
+                best[x] = bk
+                q0 = W - 1 - x + k_lo  # right pixel x - dmin - k sits at q = W - 1 - x + k
+                if forward:  # ties keep the smallest k whatever the order of x
+                    for j in range(n):
+                        sv = dst[_U(b0 + j)]
+                        old = rv[_U(q0 + j)]
+                        lt = sv < old
+                        rv[_U(q0 + j)] = sv if lt else old
+                        rd[_U(q0 + j)] = np.int16(k_lo + j) if lt else rd[_U(q0 + j)]
                 else:
-                    dv, bk = _select_pixel(dst, db, ns, k_lo, k_hi, x, W, dmin, uniq, subpix, rv, rd, forward)
-                    disp[y, x] = dv
-                    best[x] = bk
+                    for j in range(n):
+                        sv = dst[_U(b0 + j)]
+                        old = rv[_U(q0 + j)]
+                        le = sv <= old
+                        rv[_U(q0 + j)] = sv if le else old
+                        rd[_U(q0 + j)] = np.int16(k_lo + j) if le else rd[_U(q0 + j)]
+                if uniq > 0.0:
+                    m2 = big
+                    for k in range(k_lo, bk - 1):
+                        m2 = min16(m2, dst[_U(db + k)])
+                    for k in range(bk + 2, k_hi + 1):
+                        m2 = min16(m2, dst[_U(db + k)])
+                    if m2 < big and np.float64(m2) * (1.0 - uniq) < np.float64(ns):
+                        disp[y, x] = nan
+                        continue
+                off = 0.0
+                if subpix and bk - 1 >= k_lo and bk + 1 <= k_hi:
+                    sm_ = np.int64(dst[_U(db + bk - 1)])
+                    sp_ = np.int64(dst[_U(db + bk + 1)])
+                    den = sm_ + sp_ - 2 * np.int64(ns)
+                    if den > 0:
+                        off = (sm_ - sp_) / (2.0 * den)
+                disp[y, x] = np.float32(dmin + bk + off)
         if select:
             if lr_thr >= 0.0:
                 for x in range(W):
