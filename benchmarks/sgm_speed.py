@@ -74,7 +74,7 @@ def _peak_bytes(fn, left, right) -> int:
 
 
 def run(data: Path, *, repeat: int = 15, num_disparities: int = 128, threads: int = 2, cost: str = "census",
-        paths: int = 8, opencv: bool = True, out=sys.stdout) -> dict[str, list[float]]:
+        paths: int = 8, opencv: bool = True, gap_ms: float = 50.0, out=sys.stdout) -> dict[str, list[float]]:
     cv2.setNumThreads(threads)
     left, right = load_kitti_grey(data)
     H, W = left.shape
@@ -97,10 +97,15 @@ def run(data: Path, *, repeat: int = 15, num_disparities: int = 128, threads: in
     for i in range(repeat):
         order = names[i % len(names):] + names[:i % len(names)]
         for n in order:
+            # OpenCV's worker threads spin for a while after each call; without a pause they steal a
+            # core from whichever method runs next (measured: sgm median 109 ms right after OpenCV
+            # calls, 73 ms on its own). The pause applies to every method alike.
+            time.sleep(gap_ms / 1e3)
             t = time.perf_counter()
             runners[n](left, right)
             times[n].append((time.perf_counter() - t) * 1e3)
-    print(f"{W}x{H}, {D} disparities, {threads} threads, {repeat} interleaved repeats; "
+    print(f"{W}x{H}, {D} disparities, {threads} threads, {repeat} interleaved repeats ({gap_ms:.0f} ms pause "
+          f"between calls); "
           f"sgm first call (compile/cache load) {first:.0f} ms", file=out)
     print(f"{'method':16s} {'median':>8s} {'min':>8s}  {'MDE/s':>7s}", file=out)
     for n in names:
@@ -131,9 +136,10 @@ def main(argv=None) -> int:
     ap.add_argument("--cost", default="census", choices=["census", "sad"])
     ap.add_argument("--paths", type=int, default=8, choices=[4, 8])
     ap.add_argument("--no-opencv", action="store_true")
+    ap.add_argument("--gap-ms", type=float, default=50.0, help="pause before every timed call (default 50)")
     a = ap.parse_args(argv)
     run(a.data, repeat=a.repeat, num_disparities=a.disparities, threads=a.threads, cost=a.cost, paths=a.paths,
-        opencv=not a.no_opencv)
+        opencv=not a.no_opencv, gap_ms=a.gap_ms)
     return 0
 
 

@@ -155,7 +155,7 @@ def test_selection_matches_reference(dmin, D, uniqueness, lr_check, subpixel, th
     kw = dict(min_disparity=dmin, num_disparities=D, p1=P1, p2=P2)
     S = core.sum_volume(left, right, **kw)
     d, dr, timings = core.sgm_match(left, right, uniqueness=uniqueness, lr_check=lr_check, subpixel=subpixel,
-                                    threads=threads, **kw)
+                                    threads=threads, return_right=True, **kw)
     wd, wdr = ref.select_reference(S, dmin, uniqueness=uniqueness, lr_check=lr_check, subpixel=subpixel)
     assert d.dtype == np.float32 and d.shape == left.shape and dr.shape == left.shape
     np.testing.assert_array_equal(d, wd)
@@ -174,6 +174,16 @@ def test_filters_only_remove_pixels():
     assert np.isfinite(base).all()  # no filter, positive range: every pixel has a candidate
 
 
+def test_right_view_is_optional_and_does_not_change_the_left_view():
+    left, right = _pair(43, h=12, w=30)
+    d0, r0, _ = core.sgm_match(left, right, num_disparities=10, lr_check=None)
+    d1, r1, _ = core.sgm_match(left, right, num_disparities=10, lr_check=None, return_right=True)
+    d2, r2, _ = core.sgm_match(left, right, num_disparities=10, lr_check=1.0, return_right=False)
+    assert r0 is None and r1 is not None and r2 is not None  # the LR check needs the right view
+    np.testing.assert_array_equal(d0, d1)
+    np.testing.assert_array_equal(r1, r2)
+
+
 def test_sad_and_four_paths_run_end_to_end():
     left, right = _pair(42, h=20, w=40, shift=4, noise=0)
     for cost in ("census", "sad"):
@@ -190,7 +200,7 @@ def test_sad_and_four_paths_run_end_to_end():
 
 def test_left_border_uses_the_range_that_fits():
     left, right = _pair(50, h=16, w=48, shift=5, noise=0)
-    d, dr, _ = core.sgm_match(left, right, num_disparities=24, lr_check=None)
+    d, dr, _ = core.sgm_match(left, right, num_disparities=24, lr_check=None, return_right=True)
     x = np.arange(48)
     # never a disparity whose match lies left of the right image, and no blanket NaN band
     assert np.all(np.isnan(d) | (d <= x[None, :] + 0.5))
@@ -338,7 +348,8 @@ def test_random_shapes_give_well_formed_results(h, w, dmin, D, cost, paths, seed
     p = dict(p1=P1, p2=P2) if cost == "census" else dict(p1=200, p2=800)
     d, dr, _ = core.sgm_match(left, right, cost=cost, min_disparity=dmin, num_disparities=D, paths=paths,
                               lr_check=lr, uniqueness=uniq, **p)
-    assert d.shape == (h, w) and d.dtype == np.float32 and dr.shape == (h, w)
+    assert d.shape == (h, w) and d.dtype == np.float32
+    assert (dr is None) == (lr is None) and (dr is None or dr.shape == (h, w))
     ok = np.isfinite(d)
     assert not np.isinf(d).any()
     assert np.all(d[ok] >= dmin - 0.5) and np.all(d[ok] <= dmin + D - 1 + 0.5)
