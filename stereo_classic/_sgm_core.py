@@ -128,7 +128,7 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
              Sf, y_first, nrows, step, accumulate, select, init_cost, keep_sums,
              PH, PV, PA, PB, MH, MV, MA, MB, C, Ssum, colsum, hsum, rrev, srev, irev,
              dmin, h, shift, cmax, cinv, p1, p2, adaptive, path_mask,
-             uniq, lr_thr, subpix, right_view, disp, dispR, rv, rd, best):  # pragma: no cover - numba
+             uniq, lr_thr, subpix, right_view, disp, dispR, rv, rd, best, counts):  # pragma: no cover - numba
     """Run the forward (step=+1) or backward (step=-1) 4-path pass over nrows rows from y_first.
 
     Sf: the (H * W * D,) int16 sum volume. accumulate: add to Sf instead of storing (the
@@ -347,6 +347,7 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
                         m2 = min16(m2, dst[_U(db + k)])
                     if m2 < big and np.float64(m2) * (1.0 - uniq) < np.float64(ns):
                         disp[y, x] = nan
+                        counts[0] += 1
                         continue
                 off = 0.0
                 if subpix and bk - 1 >= k_lo and bk + 1 <= k_hi:
@@ -365,6 +366,7 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
                     q = W - 1 - x + b
                     if abs(np.float64(b - rd[q])) > lr_thr:
                         disp[y, x] = nan
+                        counts[1] += 1
             nq = rv.shape[0]
             for xr in range(W):
                 q = W - 1 - dmin - xr
@@ -412,7 +414,7 @@ def _thread_buffers(H: int, W: int, D: int, kind: int, h: int) -> dict[str, np.n
         "C": np.zeros(D, np.int16), "Ssum": np.zeros(D, np.int16), "colsum": colsum, "hsum": np.zeros(D, np.int32),
         "rrev": rrev, "srev": srev, "irev": irev,
         "rv": np.empty(W + D - 1, np.int16), "rd": np.empty(W + D - 1, np.int16),
-        "best": np.empty(W, np.int64),
+        "best": np.empty(W, np.int64), "counts": np.zeros(2, np.int64),
     })
     return bufs
 
@@ -422,6 +424,7 @@ def _reset_buffers(b: dict[str, np.ndarray], D: int) -> None:
     for name in "HVAB":
         b["P" + name].reshape(-1, E)[:, 1:E - 1] = 0
         b["M" + name][:] = 0
+    b["counts"][:] = 0
 
 
 class Workspace:
@@ -542,7 +545,8 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
                  S.reshape(-1), y_first, nrows, step, phase == 1, select and phase == 1, fresh, keep_sums,
                  b["PH"], b["PV"], b["PA"], b["PB"], b["MH"], b["MV"], b["MA"], b["MB"], b["C"], b["Ssum"], b["colsum"], b["hsum"], b["rrev"], b["srev"], b["irev"],
                  dmin, h, shift, cmax, cinv, p1s, p2s, bool(adaptive_p2), int(path_mask),
-                 float(uniqueness), lr_thr, bool(subpixel), right_view, disp, dispR, b["rv"], b["rd"], b["best"])
+                 float(uniqueness), lr_thr, bool(subpixel), right_view, disp, dispR, b["rv"], b["rd"], b["best"],
+                 b["counts"])
 
     for phase in (0, 1):
         if threads >= 2:
@@ -555,6 +559,8 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     t2 = time.perf_counter()
     timings["aggregate"] = (t2 - t1) * 1e3
     timings["select"] = 0.0  # fused into the second phase of "aggregate"
+    timings["n_failed_uniqueness"] = int(sum(int(b["counts"][0]) for b in bufs))
+    timings["n_failed_lr"] = int(sum(int(b["counts"][1]) for b in bufs))
     return disp, (dispR if right_view else None), S, timings
 
 
@@ -591,7 +597,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
     disparity_right : (H, W) float32 or None: the right view's winner-takes-all disparity from the
         same sums (integer values), NaN where no disparity of the range maps inside the left image.
     timings : ms for "cost" (census transform / prefilter), "aggregate" (both passes including
-        per-pixel costs and the fused selection), "select" (0: fused).
+        per-pixel costs and the fused selection), "select" (0: fused); plus the pixel counts
+        "n_failed_uniqueness" and "n_failed_lr" (int) that the filters set to NaN.
     """
     if paths not in (4, 8):
         raise ValueError(f"`paths` must be 4 or 8, got {paths}")

@@ -160,7 +160,13 @@ def test_selection_matches_reference(dmin, D, uniqueness, lr_check, subpixel, th
     assert d.dtype == np.float32 and d.shape == left.shape and dr.shape == left.shape
     np.testing.assert_array_equal(d, wd)
     np.testing.assert_array_equal(dr, wdr)
-    assert set(timings) >= {"cost", "aggregate", "select"}
+    assert set(timings) >= {"cost", "aggregate", "select", "n_failed_uniqueness", "n_failed_lr"}
+    n_nan = int(np.isnan(d).sum()) - int(np.isnan(ref.select_reference(S, dmin, uniqueness=0.0, lr_check=None)[0]).sum())
+    assert timings["n_failed_uniqueness"] + timings["n_failed_lr"] == n_nan
+    if uniqueness == 0.0:
+        assert timings["n_failed_uniqueness"] == 0
+    if lr_check is None:
+        assert timings["n_failed_lr"] == 0
 
 
 def test_filters_only_remove_pixels():
