@@ -3,7 +3,7 @@
 >>> from stereo_classic.params import SGMParams
 >>> params = SGMParams(num_disparities=64, block_size=5)
 >>> params.effective_p1, params.effective_p2
-(15, 80)
+(20, 80)
 >>> params.replace(cost="sad").effective_p1
 200
 """
@@ -43,7 +43,7 @@ MAX_PENALTY = 32767
 _MAX_CENSUS_BITS = 64
 
 # Census defaults: measured best on the developers' scenes (see the README's parameter table).
-_CENSUS_P1 = 15
+_CENSUS_P1 = 20
 _CENSUS_P2 = 80
 # SAD defaults: OpenCV's recommendation 8 * cn * block^2 and 32 * cn * block^2 with cn = 1 (we match on grey).
 _SAD_P1_PER_PIXEL = 8
@@ -127,7 +127,7 @@ class SGMParams:
         Odd side of the square SAD window, 1 .. 21 (used by ``cost="sad"``). Default 5.
     p1, p2 : int or None
         Smoothness penalties for a disparity change of 1 px and of more than 1 px (``p2 > p1``).
-        None uses defaults scaled to the cost: census 15 / 80 (measured best on real scenes);
+        None uses defaults scaled to the cost: census 20 / 80 (measured best on real scenes);
         SAD ``8 * block_size**2`` / ``32 * block_size**2`` (OpenCV's rule with one channel).
         Units are those of the cost: Hamming bits for census, raw window SAD for "sad" (the kernels
         scale SAD and the penalties together). P2 is limited by the int16 path sums (census 9x7:

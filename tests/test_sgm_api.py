@@ -63,7 +63,7 @@ class TestParams:
     def test_defaults_and_effective_penalties(self):
         p = SGMParams()
         assert (p.cost, p.num_disparities, p.block_size, p.paths) == ("census", 64, 5, 8)
-        assert (p.effective_p1, p.effective_p2) == (15, 80)
+        assert (p.effective_p1, p.effective_p2) == (20, 80)
         sad = p.replace(cost="sad", block_size=3)
         assert (sad.effective_p1, sad.effective_p2) == (8 * 9, 32 * 9)
         assert p.replace(p1=3, p2=30).effective_p2 == 30
@@ -228,8 +228,9 @@ class TestComputeDisparity:
             assert v["failed_lr"] == 0
         if uniqueness == 0:
             assert v["failed_uniqueness"] == 0
-        if lr_check is not None and uniqueness:
-            assert v["failed_lr"] is None and v["failed_uniqueness"] is None
+        if v["failed_lr"] is None or v["failed_uniqueness"] is None:
+            # both filters on and the kernels do not count them: the split is unknown, not guessed
+            assert lr_check is not None and uniqueness and v["failed_lr"] is v["failed_uniqueness"] is None
         else:
             assert v["no_candidate"] + v["failed_lr"] + v["failed_uniqueness"] == v["unknown_matcher"]
             assert (v["failed_lr"] > 0) == (lr_check is not None)
