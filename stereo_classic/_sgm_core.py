@@ -222,8 +222,12 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
             wvs = i - v + H
             mh = MH[rhs]
             mv = MV[wvs + 1]
-            qh = add16(mh, _p2_at(limg, y, x, y, x - step, p1_16, p2_16, adaptive))
-            qv = add16(mv, _p2_at(limg, y, x, y - step, x, p1_16, p2_16, adaptive))
+            if adaptive:
+                qh = add16(mh, _p2_at(limg, y, x, y, x - step, p1_16, p2_16, adaptive))
+                qv = add16(mv, _p2_at(limg, y, x, y - step, x, p1_16, p2_16, adaptive))
+            else:
+                qh = add16(mh, p2_16)
+                qv = add16(mv, p2_16)
             wh = whs * E
             rh = rhs * E
             wv = wvs * E
@@ -238,8 +242,12 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
                 wbs = i + 1
                 ma = MA[was + 1]
                 mb = MB[wbs + 1]
-                qa = add16(ma, _p2_at(limg, y, x, y - step, x - step, p1_16, p2_16, adaptive))
-                qb = add16(mb, _p2_at(limg, y, x, y - step, x + step, p1_16, p2_16, adaptive))
+                if adaptive:
+                    qa = add16(ma, _p2_at(limg, y, x, y - step, x - step, p1_16, p2_16, adaptive))
+                    qb = add16(mb, _p2_at(limg, y, x, y - step, x + step, p1_16, p2_16, adaptive))
+                else:
+                    qa = add16(ma, p2_16)
+                    qb = add16(mb, p2_16)
                 wa = was * E
                 ra = wa + E
                 wb = wbs * E
