@@ -14,11 +14,17 @@ Design (see ``.notes/readme_sgm_core.md``):
   half, each *adding* its 4 paths to the stored partial sum; every row is then complete and is
   resolved at once (winner-takes-all, uniqueness, parabola subpixel, right-view argmin, left-right
   check) while it is still in cache: no separate argmin pass.
-* Row buffers are updated in place. The two diagonal directions use a skewed index
-  (``x - y + H`` and ``x + y + 1``) so that the previous pixel on the path sits at the same slot as
-  the current one: three (W + H + 1, D + 2) int16 buffers per thread (about 1.2 MB at
-  1242 x 375 x 128), small enough for a 2 MB L2.
-* Arithmetic stays in int16 through LLVM intrinsics (``_sgm_intrinsics``).
+* The 4 paths of a pass are updated in ONE loop over the disparities (int16 vectors, 32 lanes).
+  Path vectors live in skewed row buffers: the new vector of a pixel is written one slot before
+  the slot its predecessor is read from (vertical slot ``i - v + H``, diagonals ``i - 2v + 2H``
+  and ``i + 1``), so every write lands on a vector the row has already consumed: no copies, no
+  temporaries, about 1 MB per thread at 1242 x 375 x 128 (Zen 4: 1 MB L2 per core).
+* In phase 2 the complete sums go to a D-vector scratch, not back to ``S`` (only the test entry
+  ``sum_volume`` keeps them).
+* Arithmetic stays in int16 through LLVM intrinsics (``_sgm_intrinsics``); flat arrays indexed
+  with unsigned offsets (no wraparound code, plain vector loads); per-pixel loops written out in
+  ``sgm_pass`` (separate numba functions are not inlined by LLVM, and inlining at numba-IR level
+  adds reference counting per pixel).
 
 Bounds: every path value satisfies ``L <= C + P2`` and costs are at most ``invalid_cost =
 Cmax + 2 * P2 + 1``, so ``8 * (invalid_cost + P2) <= 32767`` keeps the 8-path sum inside int16
@@ -30,7 +36,6 @@ disparity of the range maps inside the right image.
 
 from __future__ import annotations
 
-import math
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -40,23 +45,19 @@ from numba import njit
 
 from ._sgm_cost import (
     SAD_PIXEL_MAX,
-    _clamp,
     census_bits,
-    census_pixel_cost,
     census_reverse_row,
     census_transform,
     cost_volume_kernel,
-    fill_invalid,
     sad_colsum_advance,
     sad_colsum_init,
-    sad_hsum_advance,
     sad_hsum_init,
-    sad_pixel_cost,
     sad_prefilter,
 )
 from ._sgm_intrinsics import add16, and16, min16, popcnt16, sub16
 
-__all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "check_penalties", "cost_scale", "ALL_PATHS", "PATH_NAMES"]
+__all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume", "check_penalties", "cost_scale",
+           "ALL_PATHS", "FOUR_PATHS", "PATH_NAMES", "PATH_STEPS"]
 
 #: Bit i of a path mask selects direction PATH_NAMES[i]. Bits 0-3 run in the forward pass,
 #: bits 4-7 in the backward pass. (dx, dy) is the step from the previous pixel on the path.
