@@ -125,7 +125,7 @@ def test_left_border_band_is_matched(results, name):
 def test_census_survives_exposure_change(shared_data, name):
     """Right image with gain 1.3 and offset +20: census loses at most 2 points of bad-2, SAD more.
 
-    Measured: Adirondack census 11.5 -> 11.9, SAD 12.6 -> 18.2; Cones census 13.3 -> 13.8, SAD 14.9 -> 21.2.
+    Measured: Adirondack census 11.3 -> 11.7, SAD 12.6 -> 18.2; Cones census 13.5 -> 13.9, SAD 14.9 -> 21.2.
     """
     scene = load_scene(shared_data / SCENES[name])
     gt = scene.gt_disparity
