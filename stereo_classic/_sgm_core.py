@@ -177,7 +177,6 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
     nan = np.float32(np.nan)
     forward = step > 0
     dst = Sf if keep_sums else Ssum
-    kidx = np.arange(D).astype(np.int16)  # int16 lane indices: keeps the index loops in 16-bit vectors
     for r in range(nrows):
         y = y_first + step * r
         v = y if forward else H - 1 - y
@@ -338,10 +337,9 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
                     continue
                 n = k_hi - k_lo + 1
                 b0 = db + k_lo
-                bi = big
-                for j in range(n):
-                    bi = min16(bi, kidx[j] if dst[_U(b0 + j)] == ns else big)
-                bk = k_lo + np.int64(bi)
+                bk = k_lo  # first index of the minimum: usually near the start, a scalar scan wins
+                while bk < k_hi and dst[_U(db + bk)] != ns:
+                    bk += 1
                 best[x] = bk
                 q0 = W - 1 - x + k_lo  # right pixel x - dmin - k sits at q = W - 1 - x + k
                 if not right_view:
