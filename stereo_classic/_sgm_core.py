@@ -47,7 +47,6 @@ from ._sgm_cost import (
     SAD_PIXEL_MAX,
     NoAliasCompiler,
     census_bits,
-    census_reverse_row,
     census_transform,
     cost_volume_kernel,
     sad_colsum_advance,
@@ -55,7 +54,7 @@ from ._sgm_cost import (
     sad_hsum_init,
     sad_prefilter,
 )
-from ._sgm_intrinsics import add16, and16, min16, popcnt16, sub16
+from ._sgm_intrinsics import add16, and16, min16, popxor16, sub16
 
 __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume", "check_penalties", "cost_scale",
            "ALL_PATHS", "FOUR_PATHS", "PATH_NAMES", "PATH_STEPS"]
@@ -166,12 +165,17 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
     nan = np.float32(np.nan)
     forward = step > 0
     dst = Sf if keep_sums else Ssum
+    nrr = W + D - 1  # length of one reversed right-row quarter
     for r in range(nrows):
         y = y_first + step * r
         v = y if forward else H - 1 - y
         # --- per-row cost preparation
-        if kind == 0:
-            census_reverse_row(rcode, y, rrev, dmin)
+        if kind == 0:  # rrev[q * nrr + j] = quarter q of the right code at column clamp(W - 1 - dmin - j)
+            for j in range(nrr):
+                c = W - 1 - dmin - j
+                c = 0 if c < 0 else (W - 1 if c >= W else c)
+                for q in range(4):
+                    rrev[q * nrr + j] = rcode[y, c, q]
         else:
             if r == 0 and init_cost:
                 sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D)
@@ -184,15 +188,21 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
             for q in range(rv.shape[0]):
                 rv[q] = big
                 rd[q] = minus1
-        lrow = lcode[y]
         for i in range(W):
             x = i if forward else W - 1 - i
             # --- cost of pixel (y, x) (census written out here: a call per pixel costs as much)
-            if kind == 0:
-                lc = lrow[x]
+            if kind == 0:  # 4 x 16-bit quarters of the census code: vpopcntw, all in int16 lanes
+                a0 = lcode[y, x, 0]
+                a1 = lcode[y, x, 1]
+                a2 = lcode[y, x, 2]
+                a3 = lcode[y, x, 3]
                 j0 = W - 1 - x
+                j1 = j0 + nrr
+                j2 = j1 + nrr
+                j3 = j2 + nrr
                 for k in range(D):
-                    C[k] = popcnt16(lc ^ rrev[_U(j0 + k)])
+                    C[k] = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                                 add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
             else:
                 if i == 0:
                     sad_hsum_init(hsum, colsum, x, h, D)
@@ -411,12 +421,12 @@ def _thread_buffers(H: int, W: int, D: int, kind: int, h: int) -> dict[str, np.n
         bufs["M" + name] = np.zeros(n, np.int16)
     if kind == 1:
         colsum = np.zeros((W + 2 * h) * D, np.int16)
-        rrev = np.zeros(1, np.uint64)
+        rrev = np.zeros(1, np.uint16)
         srev = np.zeros(W + 2 * h + D - 1, np.int16)
         irev = np.zeros(W + 2 * h + D - 1, np.int16)
     else:
         colsum = np.zeros(1, np.int16)
-        rrev = np.zeros(W + D - 1, np.uint64)
+        rrev = np.zeros(4 * (W + D - 1), np.uint16)
         srev = np.zeros(1, np.int16)
         irev = np.zeros(1, np.int16)
     bufs.update({
@@ -496,11 +506,15 @@ def _prepare_cost(left, right, cost, census_window, threads=1):
         else:
             lcode = census_transform(left, census_window)
             rcode = census_transform(right, census_window)
+        # (H, W, 4) uint16 quarters (little-endian: quarter 0 = bits 0-15); popcounts add up
+        H, W = left.shape
+        lcode = lcode.view(np.uint16).reshape(H, W, 4)
+        rcode = rcode.view(np.uint16).reshape(H, W, 4)
         lsob, lint, rsob, rint = (np.zeros((1, 1), np.int16) for _ in range(4))  # distinct: noalias
         return lcode, rcode, lsob, lint, rsob, rint
     lsob, lint = sad_prefilter(left)
     rsob, rint = sad_prefilter(right)
-    return np.zeros((1, 1), np.uint64), np.zeros((1, 1), np.uint64), lsob, lint, rsob, rint
+    return np.zeros((1, 1, 4), np.uint16), np.zeros((1, 1, 4), np.uint16), lsob, lint, rsob, rint
 
 
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
@@ -649,6 +663,9 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
     cinv = cmax + 2 * (int(p2) >> shift) + 1
     h = block_size // 2 if kind == 1 else 0
     lcode, rcode, lsob, lint, rsob, rint = _prepare_cost(left, right, cost, census_window)
+    # the volume kernel takes the whole 64-bit codes (one popcount per disparity)
+    lcode = np.ascontiguousarray(lcode).reshape(lcode.shape[0], -1).view(np.uint64)
+    rcode = np.ascontiguousarray(rcode).reshape(rcode.shape[0], -1).view(np.uint64)
     out = np.empty((H, W, D), np.int16)
     cost_volume_kernel(kind, lcode, rcode, lsob, lint, rsob, rint, int(min_disparity), h, shift, cmax,
                        np.int16(cinv), out)
