@@ -129,7 +129,7 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
              Sf, y_first, nrows, step, accumulate, select, init_cost, keep_sums,
              PH, PV, PA, PB, MH, MV, MA, MB, C, Ssum, colsum, hsum, rrev, srev, irev,
              dmin, h, shift, cmax, cinv, p1, p2, adaptive, path_mask,
-             uniq, lr_thr, subpix, right_view, disp, dispR, rv, rd, best, counts):  # pragma: no cover - numba
+             uniq, lr_thr, lr_claims, subpix, right_view, disp, dispR, rv, rd, best, counts, ccost, ck):  # pragma: no cover
     """Run the forward (step=+1) or backward (step=-1) 4-path pass over nrows rows from y_first.
 
     Sf: the (H * W * D,) int16 sum volume. accumulate: add to Sf instead of storing (the
@@ -188,6 +188,10 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
             for q in range(rv.shape[0]):
                 rv[q] = big
                 rd[q] = minus1
+        if select and lr_claims:
+            for q in range(W):
+                ccost[q] = big
+                ck[q] = minus1
         for i in range(W):
             x = i if forward else W - 1 - i
             # --- cost of pixel (y, x) (census written out here: a call per pixel costs as much)
@@ -367,6 +371,14 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
                         disp[y, x] = nan
                         counts[0] += 1
                         continue
+                if lr_claims:
+                    # LR check as OpenCV does it: the right pixel x - d is claimed by the left pixel
+                    # with the lowest minimum sum among those whose winner lands there (ties: the
+                    # largest x, whatever the pass direction)
+                    xr = x - dmin - bk
+                    if ns < ccost[xr] or (forward and ns == ccost[xr]):
+                        ccost[xr] = ns
+                        ck[xr] = np.int16(bk)
                 off = 0.0
                 if subpix and bk - 1 >= k_lo and bk + 1 <= k_hi:
                     sm_ = np.int64(dst[_U(db + bk - 1)])
@@ -375,16 +387,33 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
                     if den > 0:
                         off = (sm_ - sp_) / (2.0 * den)
                 disp[y, x] = np.float32(dmin + bk + off)
+        if select and lr_claims:
+            # reject x only when the claims at both x - floor(d) and x - ceil(d) disagree with it
+            for x in range(W):
+                dv = disp[y, x]
+                if dv != dv:
+                    continue
+                t = np.float64(dv) - dmin
+                kf = np.int64(np.floor(t))
+                kc = np.int64(np.ceil(t))
+                xf = x - dmin - kf
+                xc = x - dmin - kc
+                bad_f = 0 <= xf < W and ck[xf] >= 0 and abs(np.float64(ck[xf] - kf)) > lr_thr
+                bad_c = 0 <= xc < W and ck[xc] >= 0 and abs(np.float64(ck[xc] - kc)) > lr_thr
+                if bad_f and bad_c:
+                    disp[y, x] = nan
+                    counts[1] += 1
+        if select and right_view and lr_thr >= 0.0 and not lr_claims:
+            # full check: |best - right-view winner at x - dmin - best| > lr_thr
+            for x in range(W):
+                b = best[x]
+                if b < 0 or disp[y, x] != disp[y, x]:
+                    continue
+                q = W - 1 - x + b
+                if abs(np.float64(b - rd[q])) > lr_thr:
+                    disp[y, x] = nan
+                    counts[1] += 1
         if select and right_view:
-            if lr_thr >= 0.0:
-                for x in range(W):
-                    b = best[x]
-                    if b < 0 or disp[y, x] != disp[y, x]:
-                        continue
-                    q = W - 1 - x + b
-                    if abs(np.float64(b - rd[q])) > lr_thr:
-                        disp[y, x] = nan
-                        counts[1] += 1
             nq = rv.shape[0]
             for xr in range(W):
                 q = W - 1 - dmin - xr
@@ -434,6 +463,7 @@ def _thread_buffers(H: int, W: int, D: int, kind: int, h: int) -> dict[str, np.n
         "rrev": rrev, "srev": srev, "irev": irev,
         "rv": np.empty(W + D - 1, np.int16), "rd": np.empty(W + D - 1, np.int16),
         "best": np.empty(W, np.int64), "counts": np.zeros(2, np.int64),
+        "ccost": np.empty(W, np.int16), "ck": np.empty(W, np.int16),
     })
     return bufs
 
@@ -519,7 +549,7 @@ def _prepare_cost(left, right, cost, census_window, threads=1):
 
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
          path_mask, adaptive_p2, uniqueness, lr_check, subpixel, threads, select=True, keep_sums=False,
-         workspace=None, return_right=None):
+         workspace=None, return_right=False, lr_mode="full"):
     if cost not in _KIND:
         raise ValueError(f"`cost` must be one of {sorted(_KIND)}, got {cost!r}")
     check_penalties(cost, block_size, census_window, int(p1), int(p2))
@@ -550,7 +580,10 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     disp = np.empty((H, W), np.float32)
     dispR = np.empty((H, W), np.float32)
     lr_thr = -1.0 if lr_check is None else float(lr_check)
-    right_view = lr_check is not None if return_right is None else bool(return_right or lr_check is not None)
+    if lr_mode not in ("full", "opencv"):
+        raise ValueError(f"`lr_mode` must be 'full' or 'opencv', got {lr_mode!r}")
+    lr_claims = lr_check is not None and lr_mode == "opencv"
+    right_view = bool(return_right) or (lr_check is not None and not lr_claims)
     mid = H // 2
 
     def job(t, phase):
@@ -567,8 +600,8 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
                  S.reshape(-1), y_first, nrows, step, phase == 1, select and phase == 1, fresh, keep_sums,
                  b["PH"], b["PV"], b["PA"], b["PB"], b["MH"], b["MV"], b["MA"], b["MB"], b["C"], b["Ssum"], b["colsum"], b["hsum"], b["rrev"], b["srev"], b["irev"],
                  dmin, h, shift, cmax, cinv, p1s, p2s, bool(adaptive_p2), int(path_mask),
-                 float(uniqueness), lr_thr, bool(subpixel), right_view, disp, dispR, b["rv"], b["rd"], b["best"],
-                 b["counts"])
+                 float(uniqueness), lr_thr, lr_claims, bool(subpixel), right_view, disp, dispR, b["rv"], b["rd"], b["best"],
+                 b["counts"], b["ccost"], b["ck"])
 
     for phase in (0, 1):
         if threads >= 2:
@@ -590,7 +623,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
               num_disparities: int = 64, block_size: int = 5, census_window: tuple[int, int] = (9, 7),
               p1: int = 20, p2: int = 80, paths: int = 8, adaptive_p2: bool = False,
               uniqueness: float = 0.0, lr_check: float | None = 1.0, subpixel: bool = True,
-              threads: int = 2, workspace: Workspace | None = None, return_right: bool | None = None
+              threads: int = 2, workspace: Workspace | None = None, return_right: bool = False,
+              lr_mode: str = "full"
               ) -> tuple[np.ndarray, np.ndarray | None, dict[str, float]]:
     """Semi-global matching of a rectified grey pair (inputs already validated by the caller).
 
@@ -605,19 +639,26 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
     paths : 8 or 4 (left, right, top, bottom).
     adaptive_p2 : P2 / (1 + |I(p) - I(p - r)|), never below P1.
     uniqueness : reject when a disparity more than 1 away has sum * (1 - uniqueness) < best sum.
-    lr_check : max |d_left - d_right| in pixels for the left-right check; None = off.
+    lr_check : left-right check threshold in pixels; None = off.
+    lr_mode : "full" (default): reject when |d - d_right(x - d)| > lr_check, d_right being the
+        winner-takes-all of the right view from the same sums (removes more wrong pixels: best
+        before hole filling). "opencv": as OpenCV's StereoSGBM, each right pixel is claimed by the
+        left pixel with the lowest aggregated cost among those whose winner lands on it, and a left
+        pixel is rejected when the claims at x - floor(d) and x - ceil(d) both differ from it by more
+        than lr_check (mostly occlusions: best when unknown pixels count as errors; cheaper).
     subpixel : parabola fit through the best sum and its two neighbours.
     threads : 1 or 2.
     workspace : a ``Workspace`` to keep the big buffers between calls on one image size (None:
         allocate per call).
-    return_right : compute and return the right-view disparity; None (default): only when the
-        LR check needs it anyway (it costs about 5 % of the run time).
+    return_right : also return the right-view disparity (computed anyway for lr_mode "full" with the
+        LR check on; otherwise about 5 % more time).
 
     Returns
     -------
     disparity : (H, W) float32, pixels, NaN where unknown.
-    disparity_right : (H, W) float32 or None: the right view's winner-takes-all disparity from the
-        same sums (integer values), NaN where no disparity of the range maps inside the left image.
+    disparity_right : (H, W) float32 when computed (return_right, or the "full" LR check), else None: the right view's
+        winner-takes-all disparity from the same sums (integer values), NaN where no disparity of
+        the range maps inside the left image.
     timings : ms for "cost" (census transform / prefilter), "aggregate" (both passes including
         per-pixel costs and the fused selection), "select" (0: fused); plus the pixel counts
         "n_failed_uniqueness" and "n_failed_lr" (int) that the filters set to NaN.
@@ -630,7 +671,7 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
                                    census_window=census_window, p1=p1, p2=p2, path_mask=mask,
                                    adaptive_p2=adaptive_p2, uniqueness=uniqueness, lr_check=lr_check,
                                    subpixel=subpixel, threads=threads, workspace=workspace,
-                                   return_right=return_right)
+                                   return_right=return_right, lr_mode=lr_mode)
     return disp, dispR, timings
 
 

@@ -131,28 +131,37 @@ def sum_reference(C: np.ndarray, path_mask: int, p1: int, p2: int, image: np.nda
     return S
 
 
-def select_reference(S: np.ndarray, min_disparity: int, *, uniqueness=0.0, lr_check=1.0, subpixel=True):
+def select_reference(S: np.ndarray, min_disparity: int, *, uniqueness=0.0, lr_check=1.0, subpixel=True,
+                     lr_mode="full"):
     """(disparity, disparity_right) float32 from a complete sum volume, pixel by pixel.
 
     Valid disparities of left pixel x: indices k with 0 <= x - min_disparity - k < W. Winner = first
     index of the minimum; uniqueness rejects when some valid k with |k - best| >= 2 has
     S * (1 - uniqueness) < S_best; subpixel: parabola through best - 1, best, best + 1 when both are
-    valid and the curvature is positive. Right view: for right pixel xr, argmin over k of
-    S[y, xr + min_disparity + k, k] (first k on ties). LR: reject when |best - right_best(x - dmin -
-    best)| > lr_check.
+    valid and the curvature is positive.
+
+    LR check, lr_mode "full": reject when |best - right_best(x - dmin - best)| > lr_check, right_best
+    being the right view below.
+
+    LR check, lr_mode "opencv" (OpenCV StereoSGBM's): going through x from right to left, every left pixel that passed
+    uniqueness claims the right pixel x - dmin - best when its minimum sum is strictly lower than
+    the claim there so far. A left pixel is rejected when, for both k = floor(d - dmin) and
+    k = ceil(d - dmin) of its (subpixel) disparity d, the right pixel x - dmin - k is claimed with
+    a disparity index differing from k by more than lr_check.
+
+    Right view (returned for comparison with ``return_right=True``): for right pixel xr, argmin
+    over k of S[y, xr + min_disparity + k, k] (first k on ties).
     """
     H, W, D = S.shape
     dmin = min_disparity
     disp = np.full((H, W), np.nan, np.float32)
     dispR = np.full((H, W), np.nan, np.float32)
-    bestk = np.full((H, W), -1, np.int64)
-    rbest = np.full((H, W), -1, np.int64)
     for y in range(H):
         for xr in range(W):
             cands = [(int(S[y, xr + dmin + k, k]), k) for k in range(D) if 0 <= xr + dmin + k < W]
             if cands:
-                rbest[y, xr] = min(cands)[1]
-                dispR[y, xr] = dmin + rbest[y, xr]
+                dispR[y, xr] = dmin + min(cands)[1]
+        best = {}
         for x in range(W):
             valid = [k for k in range(D) if 0 <= x - dmin - k < W]
             if not valid:
@@ -160,7 +169,6 @@ def select_reference(S: np.ndarray, min_disparity: int, *, uniqueness=0.0, lr_ch
             vals = [int(S[y, x, k]) for k in valid]
             m = min(vals)
             b = valid[vals.index(m)]
-            bestk[y, x] = b
             if uniqueness > 0:
                 far = [int(S[y, x, k]) for k in valid if abs(k - b) >= 2]
                 if far and float(min(far)) * (1.0 - uniqueness) < float(m):
@@ -171,10 +179,30 @@ def select_reference(S: np.ndarray, min_disparity: int, *, uniqueness=0.0, lr_ch
                 den = sm + sp - 2 * m
                 if den > 0:
                     off = (sm - sp) / (2.0 * den)
-            d = np.float32(dmin + b + off)
-            if lr_check is not None:
+            disp[y, x] = np.float32(dmin + b + off)
+            best[x] = (b, m)
+        if lr_check is None:
+            continue
+        if lr_mode == "full":
+            for x, (b, _) in best.items():
                 xr = x - dmin - b
-                if abs(b - rbest[y, xr]) > lr_check:
-                    continue
-            disp[y, x] = d
+                if abs(b - (int(dispR[y, xr]) - dmin)) > lr_check:
+                    disp[y, x] = np.nan
+            continue
+        claim_cost = [None] * W
+        claim_k = [-1] * W
+        for x in range(W - 1, -1, -1):
+            if x in best:
+                b, m = best[x]
+                xr = x - dmin - b
+                if claim_cost[xr] is None or m < claim_cost[xr]:
+                    claim_cost[xr], claim_k[xr] = m, b
+        for x in best:
+            t = float(disp[y, x]) - dmin
+            fails = []
+            for k in (int(np.floor(t)), int(np.ceil(t))):
+                xr = x - dmin - k
+                fails.append(0 <= xr < W and claim_k[xr] >= 0 and abs(claim_k[xr] - k) > lr_check)
+            if all(fails):
+                disp[y, x] = np.nan
     return disp, dispR

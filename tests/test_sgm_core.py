@@ -149,14 +149,16 @@ def test_sums_stay_inside_int16_at_the_largest_p2():
 @pytest.mark.parametrize("dmin, D", [(0, 8), (-3, 8), (2, 16)])
 @pytest.mark.parametrize("uniqueness, lr_check, subpixel", [
     (0.0, 1.0, True), (0.1, None, True), (0.05, 0.0, False), (0.0, 2.0, True), (0.3, 1.0, True)])
+@pytest.mark.parametrize("lr_mode", ["full", "opencv"])
 @pytest.mark.parametrize("threads", [1, 2])
-def test_selection_matches_reference(dmin, D, uniqueness, lr_check, subpixel, threads):
+def test_selection_matches_reference(dmin, D, uniqueness, lr_check, subpixel, lr_mode, threads):
     left, right = _pair(40, h=11, w=26)
     kw = dict(min_disparity=dmin, num_disparities=D, p1=P1, p2=P2)
     S = core.sum_volume(left, right, **kw)
     d, dr, timings = core.sgm_match(left, right, uniqueness=uniqueness, lr_check=lr_check, subpixel=subpixel,
-                                    threads=threads, return_right=True, **kw)
-    wd, wdr = ref.select_reference(S, dmin, uniqueness=uniqueness, lr_check=lr_check, subpixel=subpixel)
+                                    threads=threads, return_right=True, lr_mode=lr_mode, **kw)
+    wd, wdr = ref.select_reference(S, dmin, uniqueness=uniqueness, lr_check=lr_check, subpixel=subpixel,
+                                   lr_mode=lr_mode)
     assert d.dtype == np.float32 and d.shape == left.shape and dr.shape == left.shape
     np.testing.assert_array_equal(d, wd)
     np.testing.assert_array_equal(dr, wdr)
@@ -184,10 +186,15 @@ def test_right_view_is_optional_and_does_not_change_the_left_view():
     left, right = _pair(43, h=12, w=30)
     d0, r0, _ = core.sgm_match(left, right, num_disparities=10, lr_check=None)
     d1, r1, _ = core.sgm_match(left, right, num_disparities=10, lr_check=None, return_right=True)
-    d2, r2, _ = core.sgm_match(left, right, num_disparities=10, lr_check=1.0, return_right=False)
-    assert r0 is None and r1 is not None and r2 is not None  # the LR check needs the right view
+    d2, r2, _ = core.sgm_match(left, right, num_disparities=10, lr_check=1.0, lr_mode="opencv", return_right=True)
+    d3, r3, _ = core.sgm_match(left, right, num_disparities=10, lr_check=1.0, lr_mode="opencv")
+    d4, r4, _ = core.sgm_match(left, right, num_disparities=10, lr_check=1.0)  # "full" computes it anyway
+    assert r0 is None and r3 is None and r1 is not None and r4 is not None
+    np.testing.assert_array_equal(r1, r4)
     np.testing.assert_array_equal(d0, d1)
+    np.testing.assert_array_equal(d2, d3)
     np.testing.assert_array_equal(r1, r2)
+    assert r1.dtype == np.float32 and r1.shape == left.shape
 
 
 def test_sad_and_four_paths_run_end_to_end():
@@ -304,6 +311,8 @@ def test_bad_parameters_raise_value_errors():
         core.check_penalties("census", 5, (9, 7), 50, 20)
     with pytest.raises(ValueError, match="cost"):
         core.cost_volume(left, right, cost="zncc")
+    with pytest.raises(ValueError, match="lr_mode"):
+        core.sgm_match(left, right, lr_mode="strict")
 
 
 @pytest.mark.parametrize("cost", ["census", "sad"])
