@@ -2,11 +2,13 @@
 
     python -m benchmarks.sgm_speed [--data ../shared/data] [--repeat 15] [--disparities 128]
                                    [--threads 2] [--cost census] [--paths 8] [--no-opencv]
+                                   [--gap-ms 50] [--lr-mode full|opencv]
 
 Loads the KITTI pair (1242 x 375), greyscale, times every method once per repetition in a rotating
 order (so drift of a shared machine hits all alike), the first call apart (numba compile or cache
 load), and prints median/min ms, M disparity-estimates/s, ratios to each OpenCV mode, the kernel's
 per-stage ms and the peak memory it allocated (tracemalloc, numpy buffers) against 3 x W x H x D.
+Both sides use 2 threads, block 5 (OpenCV P1 8*25, P2 32*25) and a 1 px LR check.
 """
 
 from __future__ import annotations
@@ -75,18 +77,19 @@ def _peak_bytes(fn, left, right) -> int:
 
 
 def run(data: Path, *, repeat: int = 15, num_disparities: int = 128, threads: int = 2, cost: str = "census",
-        paths: int = 8, opencv: bool = True, gap_ms: float = 50.0, out=sys.stdout) -> dict[str, list[float]]:
+        paths: int = 8, opencv: bool = True, gap_ms: float = 50.0, lr_mode: str = "full",
+        out=sys.stdout) -> dict[str, list[float]]:
     cv2.setNumThreads(threads)
     left, right = load_kitti_grey(data)
     H, W = left.shape
     D = num_disparities
     runners = {}
     t0 = time.perf_counter()
-    sgm = sgm_runner(D, threads, cost, paths)
+    sgm = sgm_runner(D, threads, cost, paths, lr_mode=lr_mode)
     sgm(left, right)
     first = (time.perf_counter() - t0) * 1e3
     sgm.stages.clear()
-    runners[f"sgm {cost} {paths}p"] = sgm
+    runners[f"sgm {cost} {paths}p" + (" lrcv" if lr_mode == "opencv" else "")] = sgm
     if opencv:
         runners["cv HH"] = opencv_runner(cv2.STEREO_SGBM_MODE_HH, D)
         runners["cv SGBM"] = opencv_runner(cv2.STEREO_SGBM_MODE_SGBM, D)
@@ -123,7 +126,7 @@ def run(data: Path, *, repeat: int = 15, num_disparities: int = 128, threads: in
         keys = [k for k in st[0] if not k.startswith("n_")]
         print("sgm stages (median ms): " + ", ".join(f"{k} {statistics.median(t[k] for t in st):.1f}" for k in keys),
               file=out)
-    fresh = sgm_runner(D, threads, cost, paths, workspace=False)  # no kept buffers: everything allocated
+    fresh = sgm_runner(D, threads, cost, paths, workspace=False, lr_mode=lr_mode)  # no kept buffers: everything allocated
     peak = _peak_bytes(fresh, left, right)
     print(f"sgm peak allocated by one call without a kept workspace: {peak / 1e6:.1f} MB = "
           f"{peak / (W * H * D):.2f} x W*H*D bytes (bar: 3.00; the images are {2 * W * H / 1e6:.1f} MB)", file=out)
@@ -140,9 +143,10 @@ def main(argv=None) -> int:
     ap.add_argument("--paths", type=int, default=8, choices=[4, 8])
     ap.add_argument("--no-opencv", action="store_true")
     ap.add_argument("--gap-ms", type=float, default=50.0, help="pause before every timed call (default 50)")
+    ap.add_argument("--lr-mode", default="full", choices=["full", "opencv"], help="LR check of the matcher (1 px)")
     a = ap.parse_args(argv)
     run(a.data, repeat=a.repeat, num_disparities=a.disparities, threads=a.threads, cost=a.cost, paths=a.paths,
-        opencv=not a.no_opencv, gap_ms=a.gap_ms)
+        opencv=not a.no_opencv, gap_ms=a.gap_ms, lr_mode=a.lr_mode)
     return 0
 
 
