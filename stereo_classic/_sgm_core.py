@@ -194,19 +194,31 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
                 ck[q] = minus1
         for i in range(W):
             x = i if forward else W - 1 - i
-            # --- cost of pixel (y, x) (census written out here: a call per pixel costs as much)
-            if kind == 0:  # 4 x 16-bit quarters of the census code: vpopcntw, all in int16 lanes
+            # --- cost of pixel (y, x) (census written out here: a call per pixel costs as much). For
+            # 8 paths and a pixel whose whole range is valid, the census cost is computed inside the
+            # path loop below instead ("fuse": no cost vector stored and reloaded).
+            k_lo = x - dmin - W + 1
+            if k_lo < 0:
+                k_lo = 0
+            k_hi = x - dmin
+            if k_hi > D - 1:
+                k_hi = D - 1
+            fuse = kind == 0 and four and k_lo == 0 and k_hi == D - 1
+            a0 = a1 = a2 = a3 = np.uint16(0)
+            if kind == 0:
                 a0 = lcode[y, x, 0]
                 a1 = lcode[y, x, 1]
                 a2 = lcode[y, x, 2]
                 a3 = lcode[y, x, 3]
-                j0 = W - 1 - x
-                j1 = j0 + nrr
-                j2 = j1 + nrr
-                j3 = j2 + nrr
-                for k in range(D):
-                    C[k] = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
-                                 add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
+            j0 = W - 1 - x
+            j1 = j0 + nrr
+            j2 = j1 + nrr
+            j3 = j2 + nrr
+            if kind == 0:  # 4 x 16-bit quarters of the census code: vpopcntw, all in int16 lanes
+                if not fuse:
+                    for k in range(D):
+                        C[k] = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                                     add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
             else:
                 if i == 0:
                     sad_hsum_init(hsum, colsum, x, h, D)
@@ -219,12 +231,6 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
                     sv32 = hsum[k] >> shift
                     C[k] = np.int16(sv32 if sv32 < cmax else cmax)
             # disparities whose match is outside the right image: k outside [k_lo, k_hi]
-            k_lo = x - dmin - W + 1
-            if k_lo < 0:
-                k_lo = 0
-            k_hi = x - dmin
-            if k_hi > D - 1:
-                k_hi = D - 1
             if k_lo > 0 or k_hi < D - 1:
                 for k in range(D):
                     if k < k_lo or k > k_hi:
@@ -269,7 +275,44 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
                 rb = wb + E
                 na = big
                 nb = big
-                if accumulate:
+                if accumulate and fuse:
+                    for k in range(D):
+                        c = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                                  add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
+                        vh = _lr(PH, rh, c, mh, qh, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
+                        va = _lr(PA, ra, c, ma, qa, p1_16, k)
+                        vb = _lr(PB, rb, c, mb, qb, p1_16, k)
+                        PH[_U(wh + 1 + k)] = vh
+                        PV[_U(wv + 1 + k)] = vv
+                        PA[_U(wa + 1 + k)] = va
+                        PB[_U(wb + 1 + k)] = vb
+                        nh = min16(nh, vh)
+                        nv = min16(nv, vv)
+                        na = min16(na, va)
+                        nb = min16(nb, vb)
+                        sm = add16(add16(add16(and16(vh, mk0), and16(vv, mk1)), add16(and16(va, mk2), and16(vb, mk3))),
+                                   Sf[_U(sb + k)])
+                        dst[_U(db + k)] = sm
+                        ns = min16(ns, sm)
+                elif not accumulate and fuse:
+                    for k in range(D):
+                        c = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                                  add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
+                        vh = _lr(PH, rh, c, mh, qh, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
+                        va = _lr(PA, ra, c, ma, qa, p1_16, k)
+                        vb = _lr(PB, rb, c, mb, qb, p1_16, k)
+                        PH[_U(wh + 1 + k)] = vh
+                        PV[_U(wv + 1 + k)] = vv
+                        PA[_U(wa + 1 + k)] = va
+                        PB[_U(wb + 1 + k)] = vb
+                        nh = min16(nh, vh)
+                        nv = min16(nv, vv)
+                        na = min16(na, va)
+                        nb = min16(nb, vb)
+                        Sf[_U(sb + k)] = add16(add16(and16(vh, mk0), and16(vv, mk1)), add16(and16(va, mk2), and16(vb, mk3)))
+                elif accumulate:
                     for k in range(D):
                         c = C[k]
                         vh = _lr(PH, rh, c, mh, qh, p1_16, k)
