@@ -706,6 +706,15 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
         per-pixel costs and the fused selection), "select" (0: fused); plus the pixel counts
         "n_failed_uniqueness" and "n_failed_lr" (int) that the filters set to NaN.
     """
+    for name, img in (("left", left), ("right", right)):
+        if not (isinstance(img, np.ndarray) and img.dtype == np.uint8 and img.ndim == 2 and img.size
+                and img.flags.c_contiguous):
+            got = f"{img.dtype} {img.shape}" if isinstance(img, np.ndarray) else type(img).__name__
+            raise ValueError(f"`{name}` must be a non-empty C-contiguous (H, W) uint8 array, got {got}")
+    if left.shape != right.shape:
+        raise ValueError(f"`left` and `right` must have the same shape, got {left.shape} and {right.shape}")
+    if not (isinstance(num_disparities, (int, np.integer)) and num_disparities >= 1):
+        raise ValueError(f"`num_disparities` must be a positive integer, got {num_disparities!r}")
     if paths not in (4, 8):
         raise ValueError(f"`paths` must be 4 or 8, got {paths}")
     mask = ALL_PATHS if paths == 8 else FOUR_PATHS

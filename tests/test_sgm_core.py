@@ -313,6 +313,14 @@ def test_bad_parameters_raise_value_errors():
         core.cost_volume(left, right, cost="zncc")
     with pytest.raises(ValueError, match="lr_mode"):
         core.sgm_match(left, right, lr_mode="strict")
+    with pytest.raises(ValueError, match="right"):
+        core.sgm_match(left, right[:, :-1])
+    with pytest.raises(ValueError, match="left"):
+        core.sgm_match(left.astype(np.float32), right)
+    with pytest.raises(ValueError, match="left"):
+        core.sgm_match(np.asfortranarray(np.repeat(left, 2, axis=0)), np.repeat(right, 2, axis=0))
+    with pytest.raises(ValueError, match="num_disparities"):
+        core.sgm_match(left, right, num_disparities=0)
 
 
 @pytest.mark.parametrize("cost", ["census", "sad"])
