@@ -126,7 +126,8 @@ def run(data: Path, *, repeat: int = 15, num_disparities: int = 128, threads: in
         keys = [k for k in st[0] if not k.startswith("n_")]
         print("sgm stages (median ms): " + ", ".join(f"{k} {statistics.median(t[k] for t in st):.1f}" for k in keys),
               file=out)
-    fresh = sgm_runner(D, threads, cost, paths, workspace=False, lr_mode=lr_mode)  # no kept buffers: everything allocated
+    # no kept buffers: everything allocated by the call itself
+    fresh = sgm_runner(D, threads, cost, paths, workspace=False, lr_mode=lr_mode)
     peak = _peak_bytes(fresh, left, right)
     print(f"sgm peak allocated by one call without a kept workspace: {peak / 1e6:.1f} MB = "
           f"{peak / (W * H * D):.2f} x W*H*D bytes (bar: 3.00; the images are {2 * W * H / 1e6:.1f} MB)", file=out)

@@ -129,7 +129,8 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
              Sf, y_first, nrows, step, accumulate, select, init_cost, keep_sums,
              PH, PV, PA, PB, MH, MV, MA, MB, C, Ssum, colsum, hsum, rrev, srev, irev,
              dmin, h, shift, cmax, cinv, p1, p2, adaptive, path_mask,
-             uniq, lr_thr, lr_claims, subpix, right_view, disp, dispR, rv, rd, best, counts, ccost, ck):  # pragma: no cover
+             uniq, lr_thr, lr_claims, subpix, right_view, disp, dispR, rv, rd, best, counts, ccost,
+             ck):  # pragma: no cover - numba
     """Run the forward (step=+1) or backward (step=-1) 4-path pass over nrows rows from y_first.
 
     Sf: the (H * W * D,) int16 sum volume. accumulate: add to Sf instead of storing (the
@@ -311,7 +312,8 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
                         nv = min16(nv, vv)
                         na = min16(na, va)
                         nb = min16(nb, vb)
-                        Sf[_U(sb + k)] = add16(add16(and16(vh, mk0), and16(vv, mk1)), add16(and16(va, mk2), and16(vb, mk3)))
+                        Sf[_U(sb + k)] = add16(add16(and16(vh, mk0), and16(vv, mk1)),
+                                               add16(and16(va, mk2), and16(vb, mk3)))
                 elif accumulate:
                     for k in range(D):
                         c = C[k]
@@ -346,7 +348,8 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
                         nv = min16(nv, vv)
                         na = min16(na, va)
                         nb = min16(nb, vb)
-                        Sf[_U(sb + k)] = add16(add16(and16(vh, mk0), and16(vv, mk1)), add16(and16(va, mk2), and16(vb, mk3)))
+                        Sf[_U(sb + k)] = add16(add16(and16(vh, mk0), and16(vv, mk1)),
+                                               add16(and16(va, mk2), and16(vb, mk3)))
                 MA[was] = na
                 MB[wbs] = nb
             else:
@@ -641,9 +644,11 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
             return
         sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, left,
                  S.reshape(-1), y_first, nrows, step, phase == 1, select and phase == 1, fresh, keep_sums,
-                 b["PH"], b["PV"], b["PA"], b["PB"], b["MH"], b["MV"], b["MA"], b["MB"], b["C"], b["Ssum"], b["colsum"], b["hsum"], b["rrev"], b["srev"], b["irev"],
+                 b["PH"], b["PV"], b["PA"], b["PB"], b["MH"], b["MV"], b["MA"], b["MB"], b["C"], b["Ssum"],
+                 b["colsum"], b["hsum"], b["rrev"], b["srev"], b["irev"],
                  dmin, h, shift, cmax, cinv, p1s, p2s, bool(adaptive_p2), int(path_mask),
-                 float(uniqueness), lr_thr, lr_claims, bool(subpixel), right_view, disp, dispR, b["rv"], b["rd"], b["best"],
+                 float(uniqueness), lr_thr, lr_claims, bool(subpixel), right_view, disp, dispR,
+                 b["rv"], b["rd"], b["best"],
                  b["counts"], b["ccost"], b["ck"])
 
     for phase in (0, 1):

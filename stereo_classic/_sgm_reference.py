@@ -42,7 +42,8 @@ def _sobel_reference(image: np.ndarray) -> np.ndarray:
         for x in range(W):
             def at(yy, xx):
                 return img[min(max(yy, 0), H - 1), min(max(xx, 0), W - 1)]
-            g = (at(y - 1, x + 1) - at(y - 1, x - 1)) + 2 * (at(y, x + 1) - at(y, x - 1)) + (at(y + 1, x + 1) - at(y + 1, x - 1))
+            g = ((at(y - 1, x + 1) - at(y - 1, x - 1)) + 2 * (at(y, x + 1) - at(y, x - 1))
+                 + (at(y + 1, x + 1) - at(y + 1, x - 1)))
             out[y, x] = min(max(g, -31), 31) + 31
     return out
 
