@@ -695,7 +695,7 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
         pixel is rejected when the claims at x - floor(d) and x - ceil(d) both differ from it by more
         than lr_check (mostly occlusions: best when unknown pixels count as errors; cheaper).
     subpixel : parabola fit through the best sum and its two neighbours.
-    threads : 1 or 2.
+    threads : 1, or 2 and more (the two sweeps run on two threads; more threads are not used).
     workspace : a ``Workspace`` to keep the big buffers between calls on one image size (None:
         allocate per call).
     return_right : also return the right-view disparity (computed anyway for lr_mode "full" with the
