@@ -86,6 +86,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     group.add_argument("--lr-check", type=_lr_check, default=defaults.lr_check, metavar="PX|off",
                        help="largest left-right disparity difference, px, or 'off' (default: off; 1 for fewer, more "
                             "reliable pixels)")
+    group.add_argument("--lr-mode", choices=("full", "opencv"), default=defaults.lr_mode,
+                       help="left-right check: full (strict) or opencv (StereoSGBM's collision check) "
+                            "(default: %(default)s)")
     group.add_argument("--paths", type=int, choices=(4, 8), default=defaults.paths,
                        help="aggregation directions (default: %(default)s)")
     group.add_argument("--adaptive-p2", action="store_true", help="divide P2 by the intensity gradient")
@@ -103,7 +106,8 @@ def _params_from_args(args: argparse.Namespace) -> Any:
     from stereo_classic.params import SGMParams, parse_bytes
 
     fields = {name: getattr(args, name) for _, name, _, _ in _PARAM_OPTIONS}
-    fields.update(cost=args.cost, census_window=args.census_window, lr_check=args.lr_check, paths=args.paths,
+    fields.update(cost=args.cost, census_window=args.census_window, lr_check=args.lr_check, lr_mode=args.lr_mode,
+                  paths=args.paths,
                   adaptive_p2=args.adaptive_p2, subpixel=args.subpixel, fill_holes=args.fill_holes)
     try:
         if args.memory_limit is not None:

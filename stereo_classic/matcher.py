@@ -74,7 +74,8 @@ class DisparityMap:
     disparity : (H, W) float32
         Left-view disparity in pixels, ``d = x_left - x_right``; NaN where unknown.
     disparity_right : (H, W) float32 or None
-        Right-view disparity (pixels, NaN unknown) when the left-right check computed one.
+        Right-view disparity (pixels, integer winner-takes-all over the same sums, NaN where no
+        candidate) when ``params.right_view`` is set or the "full" left-right check computed it.
     params : SGMParams
         The parameters used.
     timings_ms : dict[str, float]
@@ -373,6 +374,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.adaptive_p2,
         uniqueness=params.uniqueness / 100.0, lr_check=params.lr_check, subpixel=params.subpixel,
         threads=params.threads if params.threads is not None else (os.cpu_count() or 1),
+        lr_mode=params.lr_mode, return_right=params.right_view,
         **({} if workspace is None else {"workspace": workspace}))
     t2 = time.perf_counter()
 

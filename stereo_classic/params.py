@@ -21,6 +21,7 @@ __all__ = [
     "SGMParams",
     "MEMORY_LIMIT_ENV",
     "COSTS",
+    "LR_MODES",
     "MAX_BLOCK_SIZE",
     "MAX_NUM_DISPARITIES",
     "MAX_PENALTY",
@@ -32,6 +33,8 @@ __all__ = [
 MEMORY_LIMIT_ENV = "STEREO_CLASSIC_MEMORY_LIMIT"
 #: Matching costs: census transform + Hamming distance, or the paper's sum of absolute differences.
 COSTS = ("census", "sad")
+#: Left-right check variants (see SGMParams.lr_mode).
+LR_MODES = ("full", "opencv")
 #: Largest accepted (odd) SAD window side.
 MAX_BLOCK_SIZE = 21
 #: Largest accepted disparity range; far above any real camera and image, it only keeps the int16 kernels safe.
@@ -146,6 +149,14 @@ class SGMParams:
         Maximum left-right disparity difference in pixels; None = no left-right check (default:
         on the real scenes it removes more good pixels than bad ones unless holes are filled;
         use 1.0 for fewer, more reliable pixels, see the README).
+    lr_mode : {"full", "opencv"}
+        How the left-right check finds the right view's disparity. "full" (default): the right
+        image's own winner over the same sums (strict). "opencv": StereoSGBM's check, which only
+        rejects a pixel that loses a collision (two left pixels claiming one right pixel) at both
+        the floor and the ceiling of its disparity (lenient, keeps more pixels).
+    right_view : bool
+        Also return the right view's disparity (``DisparityMap.disparity_right``) when the check
+        does not compute it anyway. Default False.
     subpixel : bool
         Parabola subpixel refinement. Default True.
     speckle_size : int
@@ -176,6 +187,8 @@ class SGMParams:
     adaptive_p2: bool = False
     uniqueness: float = 0.0
     lr_check: float | None = None
+    lr_mode: str = "full"
+    right_view: bool = False
     subpixel: bool = True
     speckle_size: int = 100
     speckle_range: float = 2.0
@@ -228,7 +241,7 @@ class SGMParams:
             note = " (None means the default for this cost)" if self.p1 is None or self.p2 is None else ""
             raise ValueError(f"`p2` must be larger than `p1`, got p1={p1} and p2={p2}{note}")
         _kernel_penalty_check(self.cost, self.block_size, self.census_window, p1, p2)
-        for field in ("adaptive_p2", "subpixel", "fill_holes"):
+        for field in ("adaptive_p2", "subpixel", "fill_holes", "right_view"):
             value = getattr(self, field)
             if not isinstance(value, bool):
                 fail(field, "True or False", value)
@@ -241,6 +254,9 @@ class SGMParams:
             if not _is_real(self.lr_check) or not 0 <= self.lr_check < MAX_NUM_DISPARITIES:
                 fail("lr_check", "None (off) or a non-negative number of pixels", self.lr_check)
             normalise("lr_check", float(self.lr_check))
+        if not isinstance(self.lr_mode, str) or self.lr_mode.lower() not in LR_MODES:
+            fail("lr_mode", f"one of {', '.join(map(repr, LR_MODES))}", self.lr_mode)
+        normalise("lr_mode", self.lr_mode.lower())
         if not _is_int(self.speckle_size) or self.speckle_size < 0:
             fail("speckle_size", "a non-negative integer number of pixels (0 = off)", self.speckle_size)
         normalise("speckle_size", int(self.speckle_size))

@@ -96,7 +96,8 @@ class TestParams:
         ("census_window", (9, 9)), ("census_window", (8, 7)), ("census_window", 9), ("census_window", (9, 7, 1)),
         ("adaptive_p2", 1), ("subpixel", "yes"), ("fill_holes", None),
         ("uniqueness", -1), ("uniqueness", 101), ("uniqueness", float("nan")),
-        ("lr_check", -1), ("lr_check", float("inf")), ("lr_check", "1"),
+        ("lr_check", -1), ("lr_check", float("inf")), ("lr_check", "1"), ("lr_mode", "strict"), ("lr_mode", None),
+        ("right_view", 1),
         ("speckle_size", -1), ("speckle_size", 2.5), ("speckle_range", -0.5), ("speckle_range", float("nan")),
         ("paths", 16), ("paths", 2), ("threads", 0), ("threads", 1.5),
         ("memory_limit", 0), ("memory_limit", -5), ("memory_limit", 1.5e9),
@@ -160,6 +161,10 @@ class TestComputeDisparity:
         assert dmap.disparity_right is None or dmap.disparity_right.shape == left.shape
         with_lr = compute_disparity(left, right, params.replace(lr_check=1.0))
         assert with_lr.disparity_right is not None and with_lr.disparity_right.shape == left.shape
+        asked = compute_disparity(left, right, params, right_view=True).disparity_right
+        assert asked is not None and np.nanmedian(asked[:, 8:-24]) == 7.0  # right view: same disparity, by x_right
+        lenient = compute_disparity(left, right, params.replace(lr_check=1.0, lr_mode="OpenCV"))
+        assert lenient.params.lr_mode == "opencv" and lenient.valid_fraction >= with_lr.valid_fraction
 
     @pytest.mark.parametrize("dtype, scale", [(np.uint8, 1), (np.uint16, 257), (np.uint16, 16), (np.float32, 1 / 255),
                                               (np.float64, 1.0), (np.float32, 1000.0)])
@@ -572,6 +577,8 @@ def _pairs(draw):
         census_window=draw(st.sampled_from([(9, 7), (5, 5), (3, 3), (7, 9), (1, 1)])),
         uniqueness=draw(st.sampled_from([0, 5.0, 50])),
         lr_check=draw(st.sampled_from([None, 0, 1.0, 3.0])),
+        lr_mode=draw(st.sampled_from(["full", "opencv"])),
+        right_view=draw(st.booleans()),
         subpixel=draw(st.booleans()),
         speckle_size=draw(st.sampled_from([0, 4, 100])),
         fill_holes=draw(st.booleans()),

@@ -54,7 +54,7 @@ def test_options_reach_the_matcher(pair_files, tmp_path, monkeypatch):
     out = tmp_path / "o.pfm"
     args = ["disparity", str(lp), str(rp), "-o", str(out), "--num-disparities", "20", "--min-disparity", "-2",
             "--cost", "sad", "--block-size", "3", "--p1", "10", "--p2", "90", "--uniqueness", "5",
-            "--speckle-size", "0", "--speckle-range", "1.5", "--lr-check", "2", "--paths", "4",
+            "--speckle-size", "0", "--speckle-range", "1.5", "--lr-check", "2", "--lr-mode", "opencv", "--paths", "4",
             "--census-window", "7x5", "--no-subpixel", "--fill-holes", "--memory-limit", "1G", "--threads", "1",
             "--no-png"]
     assert main(args) == 0
@@ -62,6 +62,7 @@ def test_options_reach_the_matcher(pair_files, tmp_path, monkeypatch):
     assert (p.num_disparities, p.min_disparity, p.cost, p.block_size, p.p1, p.p2) == (20, -2, "sad", 3, 10, 90)
     assert (p.uniqueness, p.speckle_size, p.speckle_range, p.lr_check, p.paths) == (5.0, 0, 1.5, 2.0, 4)
     assert (p.census_window, p.subpixel, p.fill_holes, p.memory_limit, p.threads) == ((7, 5), False, True, 2**30, 1)
+    assert p.lr_mode == "opencv"
     assert out.exists() and not (tmp_path / "o.png").exists()
 
 
