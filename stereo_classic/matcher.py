@@ -84,8 +84,8 @@ class DisparityMap:
     validity : dict[str, int | None]
         Pixel counts: "pixels" (H * W), "valid" (finite in ``disparity``), "unknown_matcher" (NaN
         out of the matcher) = "no_candidate" (columns where no disparity of the range lands inside
-        the right image) + "failed_lr" + "failed_uniqueness" (each None when both filters are on:
-        the kernels do not say which one rejected a pixel), "speckle_removed",
+        the right image) + "failed_lr" + "failed_uniqueness" (counted by the kernels; None only if
+        both filters are on and the kernels give no counts), "speckle_removed",
         "filled" (by ``fill_holes``), "border" (pixels in the image bands where the full disparity
         range does not fit, matched with the range that does) and "border_valid".
     """
