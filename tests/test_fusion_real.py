@@ -47,16 +47,6 @@ def test_kitti_four_cars_within_five_percent_of_lidar(kitti, kitti_result):
     assert np.all(np.abs(err) < 0.05), f"distances {cars.distance_m.round(2)} vs LiDAR {ref.round(2)}: {err.round(3)}"
 
 
-def test_kitti_ransac_beats_the_median_on_the_occluded_car(kitti, kitti_result):
-    """The second car's box holds a corner of the near car: the median is pulled towards it."""
-    cars = kitti_result.objects
-    med = localize(kitti_result.detections, kitti_result.disparity, kitti.rig, method="median")
-    ref = sparse_depth_reference(kitti.gt_depth, cars.xyxy)
-    err_ransac = np.abs(cars.distance_m / ref - 1)
-    err_median = np.abs(med.distance_m / ref - 1)
-    assert err_ransac.max() < err_median.max()
-
-
 def test_kitti_result_shapes_and_timings(kitti, kitti_result):
     r = kitti_result
     assert r.disparity.disparity.shape == (375, 1242)
