@@ -131,7 +131,7 @@ def test_mean_metrics_ignores_none_and_sums_n():
     assert mean_metrics([]) == {}
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=240, deadline=None)
 @given(
     hnp.arrays(np.float32, st.tuples(st.integers(1, 6), st.integers(1, 6)),
                elements=st.one_of(st.floats(-50, 50, width=32), st.just(np.nan), st.just(np.inf))),

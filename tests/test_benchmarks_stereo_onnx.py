@@ -191,7 +191,7 @@ from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=120, deadline=None)
 @given(h=st.integers(1, 24), w=st.integers(1, 40), grey=st.booleans(), dtype=st.sampled_from([np.uint8, np.uint16, np.float32]),
        seed=st.integers(0, 2**16))
 def test_property_any_image_gives_a_map_or_a_clear_error(sad_model, h, w, grey, dtype, seed):

@@ -458,7 +458,7 @@ def test_opencv_rectified_errors(tmp_path):
 
 
 # --------------------------------------------------------------------------- hostile files (hypothesis)
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=180, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(data=st.binary(max_size=300), which=st.sampled_from(sorted(READERS)))
 def test_property_random_bytes_give_a_clear_error(tmp_path, data, which):
     func, name = READERS[which]
@@ -470,7 +470,7 @@ def test_property_random_bytes_give_a_clear_error(tmp_path, data, which):
         assert str(tmp_path) in str(exc) or name in str(exc)
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=180, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(cut=st.integers(0, 2000), junk=st.sampled_from(["", "x", ": [", "\x00", "nan", "]]]", "- - -"]))
 def test_property_truncated_or_damaged_files(tmp_path, cut, junk):
     text = _opencv_text("%YAML:1.0")
@@ -487,7 +487,7 @@ def test_property_truncated_or_damaged_files(tmp_path, cut, junk):
 num = st.one_of(st.floats(allow_nan=True, allow_infinity=True, width=32), st.integers(-10**6, 10**6))
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=180, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(f=num, cx=num, baseline=num, doffs=num, width=num)
 def test_property_middlebury_values_valid_or_named_error(tmp_path, f, cx, baseline, doffs, width):
     path = tmp_path / "calib.txt"
@@ -502,7 +502,7 @@ def test_property_middlebury_values_valid_or_named_error(tmp_path, f, cx, baseli
         assert rig.baseline_m == pytest.approx(float(baseline) / 1000.0)
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(fx=num, cx0=num, baseline=num, width=num)
 def test_property_oakd_values_valid_or_named_error(tmp_path, fx, cx0, baseline, width):
     path = tmp_path / "calib.json"

@@ -122,7 +122,7 @@ class TestPointsFromDisparity:
 finite_or_not = st.floats(allow_nan=True, allow_infinity=True, width=32)
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=240, deadline=None)
 @given(
     d=hnp.arrays(np.float32, hnp.array_shapes(min_dims=0, max_dims=3, max_side=6), elements=finite_or_not),
     f=st.floats(1e-3, 1e5), b=st.floats(1e-4, 10.0), doffs=st.floats(-500.0, 500.0),
@@ -140,7 +140,7 @@ def test_property_depth_is_nan_or_positive_finite(d, f, b, doffs):
     np.testing.assert_allclose(back[ok], d[ok], rtol=1e-3, atol=1e-3 * (1 + abs(doffs)))
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=180, deadline=None)
 @given(
     f=st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-5, 5), st.booleans(), st.text(max_size=3)),
     b=st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-5, 5)),

@@ -234,7 +234,7 @@ class TestRectifyPairOnRealImages:
             good.rectify_pair(left[:200], right[:200])
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=180, deadline=None)
 @given(
     fx=st.one_of(st.floats(-10.0, 5000.0), st.sampled_from([float("nan"), float("inf")])),
     cx=st.floats(-1e4, 1e4),
@@ -252,7 +252,7 @@ def test_property_stereo_rig_valid_or_named_error(fx, cx, tx, ty, width):
         assert rig.baseline_m > 0 and rig.K_left[0, 0] > 0 and rig.image_size[0] > 0
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=180, deadline=None)
 @given(
     f=st.floats(allow_nan=True, allow_infinity=True),
     b=st.floats(allow_nan=True, allow_infinity=True),

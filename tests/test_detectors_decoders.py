@@ -451,7 +451,7 @@ class TestOptionsAndErrors:
             OnnxDetector(onnx_model({"o": raw}, input_type=TensorProto.INT32))
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=180, deadline=None)
 @given(w=st.integers(1, 700), h=st.integers(1, 700), grey=st.booleans(), centre=st.booleans())
 def test_property_boxes_inside_any_image(w, h, grey, centre):
     det = _PROPERTY_DETECTORS[centre]
@@ -497,7 +497,7 @@ def _family_detectors():
 _FAMILY_DETECTORS = _family_detectors()
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=240, deadline=None)
 @given(family=st.sampled_from(sorted(_FAMILY_DETECTORS)), seed=st.integers(0, 2**32 - 1),
        spread=st.sampled_from([1.0, 10.0, 1e4, 1e30]), special=st.sampled_from([0.0, 0.001, 0.1]),
        probabilities=st.booleans())

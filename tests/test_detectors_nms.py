@@ -76,7 +76,7 @@ def test_errors(args, kwargs, match):
         nms(*args, **kwargs)
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=450, deadline=None)
 @given(
     seed=st.integers(0, 2**32 - 1),
     n=st.integers(0, 40),

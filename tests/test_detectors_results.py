@@ -152,7 +152,7 @@ class TestExport:
 _floats = st.floats(allow_nan=True, allow_infinity=True, width=64)
 
 
-@settings(max_examples=120, deadline=None)
+@settings(max_examples=360, deadline=None)
 @given(
     n=st.integers(0, 6),
     data=st.data(),

@@ -257,7 +257,7 @@ def _brute_force_best_count(values, tol):
     return max(int(((values >= h - tol) & (values <= h + tol)).sum()) for h in values)
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=300, deadline=None)
 @given(st.lists(st.floats(-100, 100, allow_nan=False), min_size=1, max_size=60),
        st.floats(0.01, 20))
 def test_ransac_1d_finds_the_largest_consistent_set(values, tol):
@@ -324,7 +324,7 @@ def _cases(draw):
     return d, np.array(boxes, np.float64).reshape(-1, 4), make_rig(w, h, focal_px=focal, baseline_m=base, doffs=doffs), params
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=450, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(_cases())
 def test_property_well_formed_result(case):
     d, boxes, rig, params = case

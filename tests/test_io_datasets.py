@@ -441,7 +441,7 @@ def test_project_lidar_synthetic_and_errors() -> None:
         project_lidar(np.zeros((3, 2)), P=P, R0_rect=np.eye(3), Tr_velo_to_cam=Tr, image_size=(100, 80))
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=180, deadline=None)
 @given(
     xyz=st.lists(st.tuples(*(st.one_of(st.floats(-50, 50), st.just(float("nan"))) for _ in range(3))), max_size=40),
     size=st.tuples(st.integers(1, 40), st.integers(1, 40)),

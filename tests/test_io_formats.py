@@ -28,7 +28,7 @@ from stereo_classic.io import (
     write_scaled_disparity,
 )
 
-HYP = settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+HYP = settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 
 def _leftovers(folder: Path) -> list[str]:

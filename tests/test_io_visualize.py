@@ -69,7 +69,7 @@ def test_colorize_errors(values: object, kwargs: dict, exc: type, match: str) ->
         colorize(values, **kwargs)  # type: ignore[arg-type]
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=180, deadline=None)
 @given(
     v=hnp.arrays(
         st.sampled_from([np.float32, np.float64, np.int16]),

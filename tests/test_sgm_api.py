@@ -588,7 +588,7 @@ def _pairs(draw):
     return left, right, params
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=450, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(case=_pairs())
 def test_property_well_formed_or_named_error(case):
     left, right, params = case
@@ -616,7 +616,7 @@ def _disparity_maps(draw):
     return d
 
 
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=240, deadline=None)
 @given(d=_disparity_maps(), max_size=st.integers(0, 50), max_diff=st.sampled_from([0.0, 0.5, 2.0, 100.0]))
 def test_property_postprocess(d, max_size, max_diff):
     known = np.isfinite(d)
@@ -638,7 +638,7 @@ _ANY = st.one_of(st.none(), st.booleans(), st.integers(-10**7, 10**7), st.floats
                  st.text(max_size=3), st.tuples(st.integers(-3, 11), st.integers(-3, 11)))
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=450, deadline=None)
 @given(field=st.sampled_from([f.name for f in dataclasses.fields(SGMParams)]), value=_ANY)
 def test_property_params_value_or_named_error(field, value):
     try:

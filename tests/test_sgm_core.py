@@ -361,7 +361,7 @@ def test_workspace_is_reused_and_gives_identical_results():
     assert ws.nbytes == 0
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=180, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(h=st.integers(1, 9), w=st.integers(1, 24), dmin=st.integers(-6, 6), D=st.integers(1, 20),
        cost=st.sampled_from(["census", "sad"]), paths=st.sampled_from([4, 8]), seed=st.integers(0, 2**16),
        lr=st.sampled_from([None, 0.0, 1.0]), uniq=st.sampled_from([0.0, 0.15]))
