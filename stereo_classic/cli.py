@@ -40,6 +40,11 @@ def build_parser() -> argparse.ArgumentParser:
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in _SUBCOMMAND_MODULES:
         importlib.import_module(name).add_parser(subparsers)
+    # -v/-q are also accepted after the command (`run -q`); SUPPRESS keeps the global value when absent.
+    for sub in subparsers.choices.values():
+        group = sub.add_mutually_exclusive_group()
+        group.add_argument("-v", "--verbose", action="count", default=argparse.SUPPRESS, help="more log output; full tracebacks")
+        group.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS, help="only warnings and errors")
     return parser
 
 
