@@ -36,6 +36,8 @@ disparity of the range maps inside the right image.
 
 from __future__ import annotations
 
+import logging
+import os
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -667,6 +669,24 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     return disp, (dispR if right_view else None), S, timings
 
 
+_log = logging.getLogger("stereo_classic")
+_compile_note_done = False
+
+
+def _note_first_compile() -> None:
+    """Say once per process when the kernels are about to be compiled (no numba cache yet)."""
+    global _compile_note_done
+    if _compile_note_done:
+        return
+    _compile_note_done = True
+    try:  # numba's cache index of the main kernel; private attributes, so only a hint
+        index = sgm_pass._cache._cache_file._index_path
+    except AttributeError:
+        return
+    if not os.path.exists(index):
+        _log.info("compiling the stereo kernels once (about 10 s); later runs load them from numba's cache")
+
+
 def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_disparity: int = 0,
               num_disparities: int = 64, block_size: int = 5, census_window: tuple[int, int] = (9, 7),
               p1: int = 20, p2: int = 80, paths: int = 8, adaptive_p2: bool = False,
@@ -711,6 +731,7 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
         per-pixel costs and the fused selection), "select" (0: fused); plus the pixel counts
         "n_failed_uniqueness" and "n_failed_lr" (int) that the filters set to NaN.
     """
+    _note_first_compile()
     for name, img in (("left", left), ("right", right)):
         if not (isinstance(img, np.ndarray) and img.dtype == np.uint8 and img.ndim == 2 and img.size
                 and img.flags.c_contiguous):
