@@ -384,7 +384,12 @@ def _write_images(outdir: Path, name: str, result: Any, rig: Any, cfg: dict[str,
     if "pfm" in save:
         io.write_pfm(path("pfm"), disp)
     if "kitti" in save:
-        io.write_kitti_disparity(path("kitti"), disp)
+        # The KITTI PNG holds 0..255.996 px; anything else is stored as unknown (0), and said so.
+        outside = np.isfinite(disp) & ((disp < 0) | (disp > 65535 / 256))
+        if outside.any():
+            log.warning("%s: %d disparities outside 0..255.996 px do not fit a KITTI PNG and are stored as "
+                        "unknown there (the PFM keeps them)", name, int(outside.sum()))
+        io.write_kitti_disparity(path("kitti"), np.where(outside, np.float32(np.nan), disp))
     if "ply" in save:
         points = rig.points(disp)
         near, far = cfg["depth_range"]

@@ -409,3 +409,31 @@ def test_a_failing_write_leaves_no_part_of_that_frame(tmp_path, pairs, monkeypat
     _check_outputs(out, "f0_L", (160, 240), kinds=EVERY_KIND[:5])
     assert not list(out.glob("f1_L*")) and not list(out.glob("f2_L*"))
     assert len((out / "objects.jsonl").read_text().splitlines()) == 1
+
+
+def test_disparities_beyond_the_kitti_png_range_are_stored_as_unknown_there(tmp_path, capsys):
+    """A near object at ~300 px: the PFM keeps it, the KITTI PNG marks it unknown and the run says so."""
+    from stereo_classic import io
+    from test_fusion_scenes import disparity_of, make_rig
+
+    size = (480, 120)
+    rig = make_rig(*size)
+    z_box = rig.focal_px * rig.baseline_m / 300.0  # disparity 300 px
+    left, right, gt, _ = planted_scene(width=size[0], height=size[1], z_box=z_box, z_wall=z_box * 4,
+                                       box=(340, 20, 470, 100), rig=rig)
+    assert disparity_of(z_box, rig) == pytest.approx(300, abs=0.5)
+    io.write_image(tmp_path / "L.png", left)
+    io.write_image(tmp_path / "R.png", right)
+    _write_calib(tmp_path / "rig.yaml", size)  # the same focal length and baseline as make_rig
+    out = tmp_path / "out"
+    code = main(["run", "--left", str(tmp_path / "L.png"), "--right", str(tmp_path / "R.png"), "--calib",
+                 str(tmp_path / "rig.yaml"), "--model", "none", "--num-disparities", "320", "-o", str(out)])
+    assert code == 0
+    pfm = io.read_pfm(out / "L_disparity.pfm")
+    kitti = io.read_kitti_disparity(out / "L_disparity_kitti.png")
+    far = np.isfinite(pfm) & (pfm > 65535 / 256)
+    assert far.sum() > 2000  # the object was matched beyond 256 px
+    assert np.isnan(kitti[far]).all()
+    near = np.isfinite(pfm) & ~far
+    assert np.abs(kitti[near] - pfm[near]).max() <= 1 / 256 + 1e-6
+    assert "do not fit a KITTI PNG" in capsys.readouterr().err
