@@ -49,6 +49,7 @@ def time_interleaved(
     *,
     first_call: bool = True,
     on_step: Callable[[str], None] | None = None,
+    pause_s: float = 0.02,
 ) -> dict[str, TimingResult]:
     """Time each zero-argument callable ``repeat`` times, interleaved, after one untimed-for-stats first call.
 
@@ -61,6 +62,9 @@ def time_interleaved(
         Run (and time separately) one call per runner before the repetitions.
     on_step : callable, optional
         Called with the runner's name after every call (progress bars).
+    pause_s : float
+        Sleep before every timed call (not timed), so that no method pays for the threads of the one
+        before it still winding down (OpenCV's pool spins a while after a job).
 
     Returns
     -------
@@ -68,6 +72,8 @@ def time_interleaved(
     """
     if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
         raise ValueError(f"`repeat` must be an integer >= 1, got {repeat!r}")
+    if not pause_s >= 0:
+        raise ValueError(f"`pause_s` must be >= 0 seconds, got {pause_s!r}")
     names = list(runners)
     first: dict[str, float] = {}
     if first_call:
@@ -81,6 +87,8 @@ def time_interleaved(
     for rep in range(repeat):
         shift = rep % len(names) if names else 0
         for name in names[shift:] + names[:shift]:
+            if pause_s > 0:
+                time.sleep(pause_s)
             t0 = time.perf_counter()
             runners[name]()
             times[name].append((time.perf_counter() - t0) * 1000.0)

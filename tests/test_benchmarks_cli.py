@@ -141,6 +141,10 @@ def test_helpers():
     assert len(res["a"].times_ms) == 3 and res["a"].first_call_ms >= 0
     with pytest.raises(ValueError, match="repeat"):
         time_interleaved({}, 0)
+    with pytest.raises(ValueError, match="pause_s"):
+        time_interleaved({"a": lambda: None}, 1, pause_s=-1.0)
+    slow = time_interleaved({"a": lambda: None}, 2, first_call=False, pause_s=0.05)
+    assert max(slow["a"].times_ms) < 50  # the pause is not timed
     gt = np.full((4, 40), np.nan, np.float32)
     gt[0, 0] = 16.0
     scene = BenchScene("s", np.zeros((4, 40, 3), np.uint8), np.zeros((4, 40, 3), np.uint8), gt_disparity=gt)
