@@ -776,15 +776,17 @@ def iter_kitti_object(root: str | os.PathLike) -> Iterator[Scene]:
 DEMO_FOCAL_PX = 994.978
 DEMO_BASELINE_M = 0.193001
 DEMO_DOFFS_PX = 31.086
+DEMO_CX_LEFT_PX = 311.193
+DEMO_CY_PX = 254.877
 
 
 def demo_scene() -> Scene:
     """The Middlebury Motorcycle pair that ships with scikit-image (works offline).
 
     ``skimage.data.stereo_motorcycle()`` returns RGB images and a disparity with ``inf`` for unknown;
-    here they become BGR and NaN. Rig: f = 994.978 px, baseline 0.193001 m, doffs 31.086 px;
-    scikit-image does not give the principal point, so ``cx_left`` is the image centre and
-    ``cx_right = cx_left + doffs`` (only the difference matters for depth).
+    here they become BGR and NaN. Rig as ``stereo_motorcycle.__doc__`` gives it: f = 994.978 px,
+    baseline 0.193001 m, principal point x 311.193 px, y 254.877 px, dx (doffs) 31.086 px, so
+    ``cx_left = 311.193``, ``cx_right = cx_left + doffs``, ``cy = 254.877``.
     """
     from skimage import data
 
@@ -793,12 +795,11 @@ def demo_scene() -> Scene:
     right = np.ascontiguousarray(cv2.cvtColor(rgb_right, cv2.COLOR_RGB2BGR))
     gt = np.where(np.isfinite(disp), disp, np.nan).astype(np.float32)
     h, w = gt.shape
-    cx = (w - 1) / 2.0
     rig = RectifiedRig(
         focal_px=DEMO_FOCAL_PX,
-        cx_left=cx,
-        cx_right=cx + DEMO_DOFFS_PX,
-        cy=(h - 1) / 2.0,
+        cx_left=DEMO_CX_LEFT_PX,
+        cx_right=DEMO_CX_LEFT_PX + DEMO_DOFFS_PX,
+        cy=DEMO_CY_PX,
         baseline_m=DEMO_BASELINE_M,
         image_size=(w, h),
     )

@@ -217,7 +217,10 @@ def test_demo_scene() -> None:
     assert s.rig.focal_px == pytest.approx(994.978)
     assert s.rig.baseline_m == pytest.approx(0.193001)
     assert s.rig.doffs == pytest.approx(31.086)
-    assert s.rig.cx_left == pytest.approx(370.0)
+    # principal point as documented in skimage.data.stereo_motorcycle.__doc__
+    assert s.rig.cx_left == pytest.approx(311.193)
+    assert s.rig.cx_right == pytest.approx(311.193 + 31.086)
+    assert s.rig.cy == pytest.approx(254.877)
     from skimage import data
 
     rgb, _, disp = data.stereo_motorcycle()
