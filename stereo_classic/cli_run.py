@@ -478,7 +478,9 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: A
         return all(p.is_file() for p in _expected_files(outdir, name, cfg, sequence))
 
     detector, detector_name = _open_detector(cfg)
-    localizers: dict[Any, Any] = {}
+    # Only the current frame's Localizer is kept: in a --dataset run every scene brings its own rig, and
+    # each Localizer's matcher holds ~2*H*W*D bytes of buffers, so the previous one is closed on a change.
+    current: list[Any] = []  # [original rig, scaled rig, Localizer] of the frame in progress
     timings: list[dict[str, float]] = []
     n_objects = n_done = n_skipped = 0
     quiet = getattr(args, "quiet", False)
@@ -499,18 +501,20 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: A
             rig = original_rig = frame.rig if frame.rig is not None else base_rig
             if rig is None:
                 raise ValueError(f"frame {frame.name}: no calibration")
-            key = id(rig)
-            if key not in localizers:
+            if not current or current[0] is not original_rig:
+                if current:
+                    current.pop().close()  # frees its matcher's buffers before the next one allocates
+                    current.clear()
                 if cfg["scale"] != 1.0:
                     base = rig.without_maps() if getattr(rig, "has_maps", False) else rig
                     rig = base.scaled(cfg["scale"])
-                localizers[key] = (rig, Localizer(
+                current[:] = [original_rig, rig, Localizer(
                     rig, detector, _matcher_params(cfg, frame.max_disparity), method=cfg["method"],
                     box_shrink=cfg["box_shrink"], depth_range=tuple(cfg["depth_range"]), min_pixels=cfg["min_pixels"],
                     tolerance_px=cfg["tolerance_px"], near_support=cfg["near_support"],
                     centre_sigma=cfg["centre_sigma"], grow_density=cfg["grow_density"], seed=cfg["seed"],
-                    classes=cfg["classes"] or None, concurrent=cfg["concurrent"]))
-            rig, loc = localizers[key]
+                    classes=cfg["classes"] or None, concurrent=cfg["concurrent"])]
+            _, rig, loc = current
             left, right = frame.left, frame.right
             if cfg["scale"] != 1.0:
                 left, right = _scaled(left, right, original_rig, rig.image_size)
@@ -532,8 +536,8 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: A
         interrupted = True
     finally:
         bar.close()
-        for _, loc in localizers.values():
-            loc.close()
+        if current:
+            current[-1].close()
     if isinstance(source, SideBySideSource) and source.stopped_early and not interrupted:
         log.warning("%s stopped delivering frames after %d frame(s); finishing", source.what, source.frames_read)
     if timings and not quiet:

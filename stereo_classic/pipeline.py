@@ -137,10 +137,14 @@ class Localizer:
         return self.matcher.params
 
     def close(self) -> None:
-        """Stop the worker thread (also done by ``with Localizer(...) as loc:``)."""
+        """Stop the worker thread and free the matcher's buffers (also done by ``with Localizer(...) as loc:``).
+
+        Calling it again later is harmless; a closed Localizer can still be called (it allocates again).
+        """
         if self._pool is not None:
             self._pool.shutdown(wait=True)
             self._pool = None
+        self.matcher.release()
 
     def __enter__(self) -> Localizer:
         return self

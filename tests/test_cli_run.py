@@ -437,3 +437,28 @@ def test_disparities_beyond_the_kitti_png_range_are_stored_as_unknown_there(tmp_
     near = np.isfinite(pfm) & ~far
     assert np.abs(kitti[near] - pfm[near]).max() <= 1 / 256 + 1e-6
     assert "do not fit a KITTI PNG" in capsys.readouterr().err
+
+
+def test_dataset_run_keeps_the_buffers_of_one_matcher_only(tmp_path, shared_data, monkeypatch):
+    """Every OAK-D scene brings its own rig; the previous scene's matcher must free its buffers."""
+    from stereo_classic import pipeline
+
+    created, holding = [], []
+    real_init, real_call = pipeline.Localizer.__init__, pipeline.Localizer.__call__
+
+    def tracking_init(self, *a, **kw):
+        real_init(self, *a, **kw)
+        created.append(self)
+
+    def counting_call(self, left, right):
+        result = real_call(self, left, right)
+        holding.append(sum(loc.matcher._workspace not in (None, False) for loc in created))
+        return result
+
+    monkeypatch.setattr(pipeline.Localizer, "__init__", tracking_init)
+    monkeypatch.setattr(pipeline.Localizer, "__call__", counting_call)
+    argv = ["-q", "run", "--dataset", str(shared_data / "oakd"), "--max-frames", "3", "--scale", "0.25",
+            "--model", "none", "--save", "json", "-o", str(tmp_path / "o")]
+    assert main(argv) == 0
+    assert len(created) == 3 and holding == [1, 1, 1]
+    assert all(loc.matcher._workspace is None for loc in created)  # the run frees the last one too
