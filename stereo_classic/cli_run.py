@@ -146,14 +146,14 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
     from stereo_classic.config import RUN_DEFAULTS, ConfigError, load_config, merge_config
 
     flags = {k: getattr(args, k, None) for k in RUN_DEFAULTS}
-    if flags.get("max_frames") is not None and flags["max_frames"] < 0:
-        raise UsageError(f"--max-frames must be >= 0, got {flags['max_frames']}")
     matcher_flags = {name: getattr(args, f"matcher_{name}") for _, name, _, _ in _MATCHER_OPTIONS}
     try:
         file_cfg = load_config(args.config) if args.config else None
         cfg = merge_config(file_cfg, flags, matcher_flags)
     except ConfigError as exc:
         raise UsageError(str(exc)) from None
+    if cfg["max_frames"] < 0:  # the merged value: a flag or the config file
+        raise UsageError(f"`max_frames` (--max-frames) must be >= 0 (0 = all), got {cfg['max_frames']}")
     bad = [s for s in cfg["save"] if s not in SAVE_KINDS]
     if bad:
         raise UsageError(f"--save: unknown output {bad[0]!r}; choose among {', '.join(SAVE_KINDS)}")

@@ -260,6 +260,8 @@ def _bad_cases(tmp_path: Path) -> dict[str, tuple[list[str], int, str]]:
     calib_ok = _write_calib(tmp_path / "rig.yaml")
     calib_other = _write_calib(tmp_path / "other.yaml", size=(320, 240))
     base = ["run", "--model", "none", "--num-disparities", "48"]
+    negative_frames = tmp_path / "frames.toml"
+    negative_frames.write_text("max_frames = -2\n")
     return {
         "mismatched sizes": (base + ["--left", str(lp), "--right", str(small), "--calib", str(calib_ok)], 1, "differ"),
         "unreadable file": (base + ["--left", str(broken), "--right", str(rp), "--calib", str(calib_ok)], 1, "broken_L"),
@@ -276,13 +278,17 @@ def _bad_cases(tmp_path: Path) -> dict[str, tuple[list[str], int, str]]:
         "bad depth range": (base + ["--depth-range", "5", "1"], 2, "depth_range"),
         "bad confidence": (base + ["--conf", "1.5"], 2, "--conf"),
         "missing config": (base + ["--config", str(tmp_path / "none.toml")], 2, "none.toml"),
+        "negative max frames": (base + ["--left", str(lp), "--right", str(rp), "--calib", str(calib_ok),
+                                        "--max-frames", "-1"], 2, "--max-frames"),
+        "negative max_frames in config": (base + ["--left", str(lp), "--right", str(rp), "--calib", str(calib_ok),
+                                                  "--config", str(negative_frames)], 2, "`max_frames`"),
     }
 
 
 @pytest.mark.parametrize("case", ["mismatched sizes", "unreadable file", "missing file", "calibration size", "empty glob",
                                   "camera", "left without right", "no calib", "two inputs", "bad save",
                                   "bad matcher value", "bad fusion value", "bad depth range", "bad confidence",
-                                  "missing config"])
+                                  "missing config", "negative max frames", "negative max_frames in config"])
 def test_bad_input_one_line_right_code_nothing_written(tmp_path, capsys, case):
     argv, code, needle = _bad_cases(tmp_path)[case]
     out = tmp_path / "out"
