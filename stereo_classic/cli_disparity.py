@@ -133,6 +133,8 @@ def _outputs(args: argparse.Namespace) -> tuple[Path, Path | None]:
     if args.no_png:
         if args.png is not None:
             raise UsageError("--png and --no-png contradict each other")
+        if not out.parent.is_dir():
+            raise UsageError(f"-o/--output: folder {str(out.parent)!r} does not exist")
         return out, None
     png = Path(args.png) if args.png is not None else out.with_suffix(".png")
     if png.suffix.lower() != ".png":
@@ -161,9 +163,18 @@ def func(args: argparse.Namespace) -> int:
     colour = None
     if png is not None:
         colour = visualize.colorize(dmap.disparity, vmin=params.min_disparity, vmax=params.max_disparity)
-    io.write_pfm(out, dmap.disparity)
-    if colour is not None:
-        io.write_image(png, colour)
+    # Each file is written atomically; on a failure the other one is removed again, so no lone PFM or PNG.
+    written: list[Path] = []
+    try:
+        written.append(out)
+        io.write_pfm(out, dmap.disparity)
+        if colour is not None:
+            written.append(png)
+            io.write_image(png, colour)
+    except BaseException:
+        for path in written:
+            path.unlink(missing_ok=True)
+        raise
     log.info("wrote %s%s", out, f" and {png}" if png is not None else "")
     _print_summary(dmap, sys.stdout)
     return 0

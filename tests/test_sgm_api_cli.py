@@ -101,6 +101,32 @@ def test_output_must_be_pfm_and_folder_must_exist(pair_files, tmp_path, capsys):
     assert "does not exist" in capsys.readouterr().err
 
 
+def test_missing_folder_with_no_png_is_a_usage_error_before_matching(pair_files, tmp_path, capsys, monkeypatch):
+    def must_not_match(*a, **kw):
+        raise AssertionError("matched before checking the output folder")
+
+    monkeypatch.setattr(matcher_mod, "compute_disparity", must_not_match)
+    lp, rp = pair_files
+    assert main(["disparity", str(lp), str(rp), "-o", str(tmp_path / "nowhere" / "out.pfm"), "--no-png"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "does not exist" in err[0] and "-o/--output" in err[0]
+
+
+def test_a_failing_png_leaves_no_lone_pfm(pair_files, tmp_path, capsys, monkeypatch):
+    from stereo_classic import io
+
+    def full_disk(path, image, **kw):
+        raise OSError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(io, "write_image", full_disk)
+    lp, rp = pair_files
+    out = tmp_path / "res" / "out.pfm"
+    out.parent.mkdir()
+    assert main(["disparity", str(lp), str(rp), "-o", str(out), "--num-disparities", "16"]) == 1
+    assert "No space left" in capsys.readouterr().err
+    assert list(out.parent.iterdir()) == []
+
+
 def test_runtime_failures_exit_1_and_write_nothing(pair_files, tmp_path, capsys):
     lp, rp = pair_files
     out = tmp_path / "out.pfm"
