@@ -553,18 +553,35 @@ def read_middlebury(calib_txt: _PathLike, *, image_size: tuple[int, int] | None 
             log.warning("%s: doffs=%g differs from cam1 cx - cam0 cx = %g; using doffs", path, doffs, cam1[0, 2] - cam0[0, 2])
     else:
         doffs = cam1[0, 2] - cam0[0, 2]
-    if image_size is None:
+    file_size = None
+    if image_size is None or "width" in values or "height" in values:
         width, height = need("width"), need("height")
         if isinstance(width, np.ndarray) or isinstance(height, np.ndarray) or not (
             float(width).is_integer() and float(height).is_integer() and width > 0 and height > 0
         ):
             raise CalibrationError(f"{path}: keys `width`/`height` must be positive integers, got {width!r}/{height!r}")
-        size = (int(width), int(height))
-    else:
-        size = check_image_size("image_size", image_size)
+        file_size = (int(width), int(height))
+    size = file_size if image_size is None else check_image_size("image_size", image_size)
+    factor = 1.0
+    if file_size is not None and size != file_size:
+        # calib.txt of another resolution (e.g. full-size calib.txt beside quarter-size images): scale the
+        # rig when the aspect ratio agrees to within a pixel of rounding, refuse otherwise
+        factor = size[0] / file_size[0]
+        if abs(file_size[1] * factor - size[1]) > 1.0:
+            raise CalibrationError(
+                f"{path}: calib.txt is for {file_size[0]}x{file_size[1]} images but the images are "
+                f"{size[0]}x{size[1]}, a different aspect ratio; use the calib.txt of these images"
+            )
+        log.info("%s: calib.txt is for %dx%d images, the images are %dx%d: scaling the rig by %g",
+                 path, file_size[0], file_size[1], size[0], size[1], factor)
+
+    def px(c: float) -> float:  # pixel-centre convention, as RectifiedRig.scaled and cv2.resize
+        return (c + 0.5) * factor - 0.5 if factor != 1.0 else c
+
     try:
-        return RectifiedRig(focal_px=float(cam0[0, 0]), cx_left=float(cam0[0, 2]), cx_right=float(cam0[0, 2] + doffs),
-                            cy=float(cam0[1, 2]), baseline_m=float(baseline_mm) / 1000.0, image_size=size)
+        return RectifiedRig(focal_px=float(cam0[0, 0]) * factor, cx_left=float(px(cam0[0, 2])),
+                            cx_right=float(px(cam0[0, 2] + doffs)), cy=float(px(cam0[1, 2])),
+                            baseline_m=float(baseline_mm) / 1000.0, image_size=size)
     except CalibrationError as exc:
         raise _rig_error(path, exc) from None
 

@@ -4,6 +4,7 @@ hostile files (hypothesis)."""
 from __future__ import annotations
 
 import json
+import logging
 
 import cv2
 import numpy as np
@@ -514,3 +515,32 @@ def test_property_oakd_values_valid_or_named_error(tmp_path, fx, cx0, baseline, 
         assert str(path) in str(exc)
     else:
         assert rig.focal_px > 0 and rig.baseline_m > 0 and np.isfinite([rig.cx_left, rig.doffs]).all()
+
+
+# ------------------------------------------------------------------------- Middlebury size vs image_size
+def test_middlebury_full_size_calib_beside_quarter_size_images_is_scaled(tmp_path, caplog):
+    full = MOTO.replace("999.421 0 294.182", "3997.684 0 1176.728").replace("999.421 252.932", "3997.684 1011.728") \
+               .replace("999.421 0 326.96", "3997.684 0 1307.84").replace("doffs=32.778", "doffs=131.112") \
+               .replace("width=741", "width=2964").replace("height=497", "height=1988")
+    path = tmp_path / "calib.txt"
+    path.write_text(full)
+    with caplog.at_level(logging.INFO, logger="calib"):
+        rig = RectifiedRig.from_middlebury(path, image_size=(741, 497))
+    assert rig.image_size == (741, 497)
+    assert rig.focal_px == pytest.approx(3997.684 / 4)
+    assert rig.cx_left == pytest.approx((1176.728 + 0.5) / 4 - 0.5)
+    assert rig.doffs == pytest.approx(131.112 / 4)
+    assert rig.baseline_m == pytest.approx(0.193001)
+    assert "2964x1988" in caplog.text and "741x497" in caplog.text
+    # same size: unchanged
+    same = tmp_path / "same.txt"
+    same.write_text(MOTO)
+    assert RectifiedRig.from_middlebury(same, image_size=(741, 497)).focal_px == pytest.approx(999.421)
+
+
+def test_middlebury_calib_of_another_aspect_ratio_is_refused(tmp_path):
+    path = tmp_path / "calib.txt"
+    path.write_text(MOTO)
+    with pytest.raises(CalibrationError, match="741x497") as info:
+        RectifiedRig.from_middlebury(path, image_size=(741, 300))
+    assert "741x300" in str(info.value) and str(path) in str(info.value)
