@@ -63,6 +63,10 @@ def _check_maps(name: str, maps: Any, size: tuple[int, int]) -> tuple[np.ndarray
     return maps
 
 
+_RECTIFY_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.float32))
+_RECTIFY_INTERPOLATIONS = (cv2.INTER_NEAREST, cv2.INTER_LINEAR, cv2.INTER_CUBIC, cv2.INTER_LANCZOS4)
+
+
 @dataclass(frozen=True)
 class RectifiedRig:
     """Geometry of a rectified stereo pair (row-aligned images).
@@ -251,6 +255,11 @@ class RectifiedRig:
             True: every call. False: never. None (default): on the first pair this rig remaps, so that a video
             loop pays for it once.
 
+        interpolation : int
+            ``cv2.INTER_NEAREST``, ``cv2.INTER_LINEAR`` (default), ``cv2.INTER_CUBIC`` or ``cv2.INTER_LANCZOS4``.
+
+        Images must be uint8, uint16 or float32 with 1 to 4 channels.
+
         Returns
         -------
         left, right : rectified images, same dtype, size ``image_size``.
@@ -259,8 +268,22 @@ class RectifiedRig:
         for name, img in (("left", left), ("right", right)):
             if img.ndim not in (2, 3) or img.size == 0:
                 raise ValueError(f"`{name}` must be an (H, W) or (H, W, C) image, got shape {img.shape}")
+            if img.dtype not in _RECTIFY_DTYPES:
+                raise ValueError(f"`{name}` must be a uint8, uint16 or float32 image, got dtype {img.dtype}")
+            channels = 1 if img.ndim == 2 else img.shape[2]
+            if not 1 <= channels <= 4:
+                raise ValueError(f"`{name}` must have 1 to 4 channels, got shape {img.shape}")
         if left.shape != right.shape:
             raise ValueError(f"`left` and `right` must have the same shape, got {left.shape} and {right.shape}")
+        if left.dtype != right.dtype:
+            raise ValueError(f"`left` and `right` must have the same dtype, got {left.dtype} and {right.dtype}")
+        if isinstance(interpolation, bool) or not isinstance(interpolation, (int, np.integer)) or \
+                int(interpolation) not in _RECTIFY_INTERPOLATIONS:
+            raise ValueError(
+                "`interpolation` must be one of cv2.INTER_NEAREST, cv2.INTER_LINEAR, cv2.INTER_CUBIC, "
+                f"cv2.INTER_LANCZOS4, got {interpolation!r}"
+            )
+        interpolation = int(interpolation)
         expected = self.raw_image_size if self.has_maps else self.image_size
         width, height = expected
         if left.shape[:2] != (height, width):

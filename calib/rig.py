@@ -64,6 +64,15 @@ def _distortion(name: str, value: Any) -> np.ndarray:
     return arr
 
 
+def _check_alpha(alpha: Any) -> float:
+    """``alpha`` of ``cv2.stereoRectify``: a number in [0, 1], or -1 for OpenCV's default."""
+    if isinstance(alpha, bool) or not isinstance(alpha, (int, float, np.integer, np.floating)) or not (
+        alpha == -1 or 0.0 <= float(alpha) <= 1.0
+    ):
+        raise CalibrationError(f"`alpha` must be in [0, 1] (or -1 for OpenCV's default), got {alpha!r}")
+    return float(alpha)
+
+
 @dataclass(frozen=True, eq=False)
 class StereoRig:
     """A calibrated stereo pair: intrinsics, distortion and the pose of the right camera.
@@ -159,10 +168,7 @@ class StereoRig:
             With ``maps_left``/``maps_right`` (fixed-point ``CV_16SC2`` maps), ``roi_left``/``roi_right``
             (valid pixel rectangles) and ``raw_image_size``; same image size as the raw images.
         """
-        if isinstance(alpha, bool) or not isinstance(alpha, (int, float, np.integer, np.floating)) or not (
-            alpha == -1 or 0.0 <= float(alpha) <= 1.0
-        ):
-            raise CalibrationError(f"`alpha` must be in [0, 1] (or -1 for OpenCV's default), got {alpha!r}")
+        alpha = _check_alpha(alpha)
         t = self.T
         if abs(t[0]) < max(abs(t[1]), abs(t[2])):
             raise CalibrationError(
@@ -198,7 +204,10 @@ class StereoRig:
         )
 
     def rectification(self, *, alpha: float = 0.0, zero_disparity: bool = True) -> dict[str, np.ndarray]:
-        """``R1``, ``R2``, ``P1``, ``P2``, ``Q`` of ``cv2.stereoRectify`` (float64) for other tools."""
+        """``R1``, ``R2``, ``P1``, ``P2``, ``Q`` of ``cv2.stereoRectify`` (float64) for other tools.
+
+        ``alpha`` as in :meth:`rectify` (checked the same way)."""
+        alpha = _check_alpha(alpha)
         flags = cv2.CALIB_ZERO_DISPARITY if zero_disparity else 0
         r1, r2, p1, p2, q, _roi1, _roi2 = cv2.stereoRectify(
             self.K_left, self.dist_left, self.K_right, self.dist_right, self.image_size, self.R,

@@ -22,6 +22,10 @@ import numpy as np
 
 __all__ = ["colorize", "draw_boxes", "PALETTE"]
 
+#: Largest ``thickness`` / ``font_scale`` :func:`draw_boxes` accepts (OpenCV fails or stalls far beyond).
+MAX_THICKNESS = 64
+MAX_FONT_SCALE = 32.0
+
 #: BGR colours used for boxes when none are given (cycled by box index).
 PALETTE: tuple[tuple[int, int, int], ...] = (
     (56, 56, 255), (151, 157, 255), (31, 112, 255), (29, 178, 255), (49, 210, 207),
@@ -144,7 +148,7 @@ def draw_boxes(
     colors : (B, G, R) or N of them, optional, keyword-only
         One colour for all boxes or one per box; default: a fixed palette by box index.
     thickness, font_scale : keyword-only
-        Line thickness (px) and OpenCV font scale; default from the image size.
+        Line thickness (px, int in [1, 64]) and OpenCV font scale (in (0, 32]); default from the image size.
 
     Returns
     -------
@@ -197,12 +201,22 @@ def draw_boxes(
         else:
             raise ValueError(f"`colors` must be one (B, G, R) or one per box, shape ({n}, 3), got shape {carr.shape}")
     h, w = canvas.shape[:2]
-    scale = float(font_scale) if font_scale is not None else max(0.4, min(h, w) / 800.0)
-    if not np.isfinite(scale) or scale <= 0:
-        raise ValueError(f"`font_scale` must be positive, got {font_scale}")
-    line = int(thickness) if thickness is not None else max(1, round(min(h, w) / 300))
-    if line < 1:
-        raise ValueError(f"`thickness` must be >= 1, got {thickness}")
+    if font_scale is None:
+        scale = min(MAX_FONT_SCALE, max(0.4, min(h, w) / 800.0))
+    else:
+        if isinstance(font_scale, bool) or not isinstance(font_scale, (int, float, np.integer, np.floating)) or not (
+            np.isfinite(font_scale) and 0 < font_scale <= MAX_FONT_SCALE
+        ):
+            raise ValueError(f"`font_scale` must be a positive finite number <= {MAX_FONT_SCALE}, got {font_scale!r}")
+        scale = float(font_scale)
+    if thickness is None:
+        line = min(MAX_THICKNESS, max(1, round(min(h, w) / 300)))
+    else:
+        if isinstance(thickness, bool) or not isinstance(thickness, (int, np.integer)) or not (
+            1 <= thickness <= MAX_THICKNESS
+        ):
+            raise ValueError(f"`thickness` must be an int in [1, {MAX_THICKNESS}], got {thickness!r}")
+        line = int(thickness)
     font = cv2.FONT_HERSHEY_SIMPLEX
     text_thickness = max(1, line // 2)
     for (x1, y1, x2, y2), text, color in zip(boxes, texts, box_colors):

@@ -100,6 +100,43 @@ class TestStereoRig:
         with pytest.raises(CalibrationError, match="alpha"):
             make_rig().rectify(alpha=alpha)
 
+    @pytest.mark.parametrize("alpha", [-0.5, 1.5, float("nan"), "0", True])
+    def test_rectification_bad_alpha(self, alpha):
+        with pytest.raises(CalibrationError, match="alpha"):
+            make_rig().rectification(alpha=alpha)
+
+    @pytest.mark.parametrize(
+        "image, match",
+        [
+            (np.zeros((8, 8), bool), "uint8, uint16 or float32.*bool"),
+            (np.zeros((8, 8), np.float64), "uint8, uint16 or float32.*float64"),
+            (np.zeros((8, 8, 5), np.uint8), "1 to 4 channels"),
+        ],
+    )
+    def test_rectify_pair_bad_image(self, image, match):
+        rect = make_rig().rectify()
+        w, h = rect.raw_image_size
+        big = np.zeros((h, w) + image.shape[2:], image.dtype)
+        with pytest.raises(ValueError, match=f"`left` must be .*{match}" if "channels" not in match else match):
+            rect.rectify_pair(big, big)
+
+    @pytest.mark.parametrize("interpolation", [cv2.INTER_AREA, 99, -1, True, 1.0, "linear"])
+    def test_rectify_pair_bad_interpolation(self, interpolation):
+        rect = make_rig().rectify()
+        w, h = rect.raw_image_size
+        img = np.zeros((h, w), np.uint8)
+        with pytest.raises(ValueError, match="`interpolation` must be one of"):
+            rect.rectify_pair(img, img, interpolation=interpolation, check_offset=False)
+
+    @pytest.mark.parametrize("interpolation", [cv2.INTER_NEAREST, cv2.INTER_LINEAR, cv2.INTER_CUBIC, cv2.INTER_LANCZOS4])
+    @pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
+    def test_rectify_pair_good_input(self, interpolation, dtype):
+        rect = make_rig().rectify()
+        w, h = rect.raw_image_size
+        img = np.full((h, w, 3), 7, dtype)
+        out_l, out_r = rect.rectify_pair(img, img, interpolation=interpolation, check_offset=False)
+        assert out_l.dtype == np.dtype(dtype) and out_l.shape == (rect.image_size[1], rect.image_size[0], 3)
+
     def test_rectify_refuses_vertical_and_swapped_rigs(self):
         with pytest.raises(CalibrationError, match="horizontal"):
             make_rig(T=[0.0, -0.12, 0.0]).rectify()

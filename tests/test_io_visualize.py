@@ -133,6 +133,12 @@ def test_draw_boxes_defaults_and_clipping() -> None:
         (np.zeros((5, 5, 3), np.uint8), [[0, 0, 1, 1]], None, {"colors": (1, 2, 999)}, ValueError, "colors"),
         (np.zeros((5, 5, 3), np.uint8), [[0, 0, 1, 1]], None, {"thickness": 0}, ValueError, "thickness"),
         (np.zeros((5, 5, 3), np.uint8), [[0, 0, 1, 1]], None, {"font_scale": -1}, ValueError, "font_scale"),
+        (np.zeros((5, 5, 3), np.uint8), [[0, 0, 1, 1]], None, {"thickness": 10**6}, ValueError, r"`thickness` must be an int in \[1, 64\]"),
+        (np.zeros((5, 5, 3), np.uint8), [[0, 0, 1, 1]], None, {"thickness": 2.5}, ValueError, "`thickness` must be an int"),
+        (np.zeros((5, 5, 3), np.uint8), [[0, 0, 1, 1]], None, {"thickness": True}, ValueError, "`thickness` must be an int"),
+        (np.zeros((5, 5, 3), np.uint8), [[0, 0, 1, 1]], ["a"], {"font_scale": 1e9}, ValueError, "`font_scale` must be a positive finite"),
+        (np.zeros((5, 5, 3), np.uint8), [[0, 0, 1, 1]], ["a"], {"font_scale": float("inf")}, ValueError, "`font_scale` must be a positive finite"),
+        (np.zeros((5, 5, 3), np.uint8), [[0, 0, 1, 1]], ["a"], {"font_scale": "1"}, ValueError, "`font_scale` must be a positive finite"),
     ],
 )
 def test_draw_boxes_errors(image, boxes, labels, kwargs, exc, match) -> None:  # noqa: ANN001
