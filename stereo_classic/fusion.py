@@ -33,6 +33,7 @@ Design decisions (see ``localize`` for the parameters):
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -69,6 +70,20 @@ def _check_rng(rng: Any) -> np.random.Generator:
     raise FusionInputError(f"`rng` must be None, a non-negative int seed or a numpy Generator, got {rng!r}")
 
 
+def _check_count(name: str, value: Any) -> None:
+    """An int >= 1 (not a bool), else FusionInputError naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise FusionInputError(f"`{name}` must be an int >= 1, got {value!r}")
+
+
+def _positive_float(name: str, value: Any) -> float:
+    """``value`` as a positive finite float, else FusionInputError naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not (
+            math.isfinite(float(value)) and float(value) > 0):
+        raise FusionInputError(f"`{name}` must be a positive finite number, got {value!r}")
+    return float(value)
+
+
 def ransac_1d(
     values: np.ndarray,
     tolerance: float,
@@ -87,7 +102,7 @@ def ransac_1d(
         Half width of the inlier band, same unit as ``values``.
     weights : (n,) float array, optional
         Non-negative weight per value (default 1: the largest set).
-    max_iterations : int
+    max_iterations : int >= 1
         Number of hypotheses; each is one of the values. When ``n <= max_iterations`` every value is a
         hypothesis (exhaustive and independent of ``rng``), otherwise ``max_iterations`` values are drawn
         without replacement with ``rng``.
@@ -115,9 +130,12 @@ def ransac_1d(
     >>> round(c, 3), int(m.sum())
     (1.0, 3)
     """
-    v = np.asarray(values, dtype=np.float64).ravel()
-    if not np.isfinite(tolerance) or tolerance <= 0:
-        raise FusionInputError(f"`tolerance` must be a positive finite number, got {tolerance!r}")
+    tolerance = _positive_float("tolerance", tolerance)
+    _check_count("max_iterations", max_iterations)
+    try:
+        v = np.asarray(values, dtype=np.float64).ravel()
+    except (TypeError, ValueError):
+        raise FusionInputError(f"`values` must be an array of numbers, got {type(values).__name__}") from None
     if v.size == 0:
         return math.nan, np.zeros(0, dtype=bool)
     if not np.all(np.isfinite(v)):
@@ -550,8 +568,7 @@ def localize(
         raise FusionInputError(f"`depth_range` must satisfy 0 <= near < far (finite metres), got {depth_range!r}")
     for name, value in (("min_pixels", min_pixels), ("max_clusters", max_clusters), ("max_iterations", max_iterations),
                         ("max_samples", max_samples)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise FusionInputError(f"`{name}` must be an int >= 1, got {value!r}")
+        _check_count(name, value)
     gen = _check_rng(rng)
 
     disp_src = getattr(disparity_map, "disparity", disparity_map)

@@ -277,6 +277,25 @@ def test_ransac_1d_edge_cases():
         ransac_1d(np.array([1.0, np.inf]), 1.0)
 
 
+@pytest.mark.parametrize("kwargs, needle", [
+    ({"max_iterations": 0}, "`max_iterations`"),
+    ({"max_iterations": -3}, "`max_iterations`"),
+    ({"max_iterations": 2.5}, "`max_iterations`"),
+    ({"max_iterations": True}, "`max_iterations`"),
+    ({"tolerance": "1"}, "`tolerance`"),
+    ({"tolerance": None}, "`tolerance`"),
+    ({"tolerance": [1.0]}, "`tolerance`"),
+    ({"tolerance": np.nan}, "`tolerance`"),
+    ({"tolerance": True}, "`tolerance`"),
+])
+def test_ransac_1d_checks_its_parameters(kwargs, needle):
+    # both on an empty and on a non-empty input: the check comes before any work
+    for values in (np.zeros(0), np.array([1.0, 1.1, 5.0])):
+        call = {"tolerance": 1.0, **kwargs}
+        with pytest.raises(FusionInputError, match=needle):
+            ransac_1d(values, call.pop("tolerance"), **call)
+
+
 def test_direction_phrase():
     assert direction_phrase([0.0, 0.0, 2.0]) == "ahead"
     assert direction_phrase([-0.5, 0.0, 3.0]) == "slightly left"
