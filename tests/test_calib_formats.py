@@ -466,9 +466,17 @@ def test_property_random_bytes_give_a_clear_error(tmp_path, data, which):
     path = tmp_path / name
     path.write_bytes(data)
     try:
-        func(path)
+        rig = func(path)
     except CalibrationError as exc:
         assert str(tmp_path) in str(exc) or name in str(exc)
+    else:  # random bytes that parse must still give a well-formed rig
+        assert isinstance(rig, (StereoRig, RectifiedRig))
+        if isinstance(rig, RectifiedRig):
+            assert rig.focal_px > 0 and rig.baseline_m > 0
+            assert np.isfinite([rig.focal_px, rig.cx_left, rig.cx_right, rig.cy, rig.baseline_m]).all()
+        else:
+            assert all(np.isfinite(m).all() for m in (rig.K_left, rig.K_right, rig.R, rig.T, rig.dist_left, rig.dist_right))
+        assert len(rig.image_size) == 2 and min(rig.image_size) > 0
 
 
 @settings(max_examples=180, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])

@@ -26,10 +26,17 @@ def make_rig(**overrides):
 
 def motorcycle(shared_data):
     d = shared_data / "middlebury2014" / "trainingQ" / "Motorcycle"
-    left, right = cv2.imread(str(d / "im0.png")), cv2.imread(str(d / "im1.png"))
-    if left is None or right is None:
-        pytest.skip("Motorcycle images not readable")
-    return d, left, right
+    return d, *read_pair(d / "im0.png", d / "im1.png")
+
+
+def read_pair(left_path, right_path):
+    """Skip only when the shared images are absent; images that exist must decode."""
+    if not (left_path.is_file() and right_path.is_file()):
+        pytest.skip(f"{left_path.parent} not available")
+    left, right = cv2.imread(str(left_path)), cv2.imread(str(right_path))
+    assert left is not None, f"{left_path} exists but cannot be decoded"
+    assert right is not None, f"{right_path} exists but cannot be decoded"
+    return left, right
 
 
 class TestStereoRig:
@@ -221,10 +228,7 @@ class TestRectifyPairOnRealImages:
         assert 1.0 < vertical_offset(left, half_px) < 2.0
 
     def test_vertical_offset_of_the_kitti_pair(self, shared_data):
-        left = cv2.imread(str(shared_data / "kitti_object_pair/left.png"))
-        right = cv2.imread(str(shared_data / "kitti_object_pair/right.png"))
-        if left is None or right is None:
-            pytest.skip("KITTI pair not readable")
+        left, right = read_pair(shared_data / "kitti_object_pair/left.png", shared_data / "kitti_object_pair/right.png")
         assert vertical_offset(left, right) < 0.5
         assert vertical_offset(left[..., 1].astype(np.float32), right[..., 1].astype(np.float32)) < 0.5  # any dtype
 

@@ -15,6 +15,7 @@ from hypothesis.extra import numpy as hnp
 
 from stereo_classic.io import (
     FileFormatError,
+    PointCloud,
     atomic_write,
     read_image,
     read_kitti_disparity,
@@ -486,9 +487,29 @@ def test_readers_on_random_bytes_raise_only_documented_errors(tmp_path: Path, ju
         path = tmp_path / name
         path.write_bytes(junk)
         try:
-            reader(path)
+            out = reader(path)
         except FileFormatError as exc:
             assert name in str(exc)
+        else:  # bytes that parse must give a well-formed result, not garbage
+            _check_well_formed(name, out, len(junk))
+
+
+def _check_well_formed(name: str, out: object, n_bytes: int) -> None:
+    if name == "j.ply":
+        assert isinstance(out, PointCloud)
+        assert out.points.dtype == np.float32 and out.points.ndim == 2 and out.points.shape[1] == 3
+        assert out.points.nbytes <= 4 * n_bytes  # at most one float per stored byte (ASCII "0 ")
+        assert out.colors is None or (out.colors.dtype == np.uint8 and out.colors.shape == out.points.shape)
+        return
+    assert isinstance(out, np.ndarray) and out.size > 0, name
+    if name == "j.png":
+        assert out.dtype in (np.uint8, np.uint16) and (out.ndim == 2 or (out.ndim == 3 and out.shape[2] in (3, 4)))
+    elif name == "j.pfm":
+        assert out.dtype == np.float32 and (out.ndim == 2 or (out.ndim == 3 and out.shape[2] == 3))
+        assert out.nbytes <= n_bytes  # the raster is stored uncompressed
+    else:  # disparity maps
+        assert out.dtype == np.float32 and out.ndim == 2
+        assert not np.isinf(out).any() and not (out < 0).any()
 
 
 @pytest.mark.parametrize(
