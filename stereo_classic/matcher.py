@@ -178,14 +178,7 @@ def _min_size(params: SGMParams) -> tuple[int, int]:
 
 def _check_pair(left: Any, right: Any, params: SGMParams) -> tuple[np.ndarray, np.ndarray]:
     """All checks that need no allocation; returns the two arrays (views of the input)."""
-    left_arr = _as_image("left", left)
-    right_arr = _as_image("right", right)
-    if left_arr.shape != right_arr.shape:
-        raise StereoInputError(f"`left` and `right` must have the same shape, got left {left_arr.shape} "
-                               f"and right {right_arr.shape}")
-    if left_arr.dtype != right_arr.dtype:
-        raise StereoInputError(f"`left` and `right` must have the same dtype, got left {left_arr.dtype} "
-                               f"and right {right_arr.dtype}")
+    left_arr, right_arr = _check_images(left, right)
     height, width = left_arr.shape[:2]
     min_h, min_w = _min_size(params)
     if height < min_h or width < min_w:
@@ -236,8 +229,24 @@ def _sample(gray: np.ndarray) -> np.ndarray:
     return gray[::step, ::step].ravel()
 
 
-def to_gray_uint8(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Convert a checked pair once to C-contiguous (H, W) uint8 grey, both with the same mapping.
+def _check_images(left: Any, right: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The checks on the pair itself (type, dtype, shape, same shape and dtype); returns the arrays."""
+    left_arr = _as_image("left", left)
+    right_arr = _as_image("right", right)
+    if left_arr.shape != right_arr.shape:
+        raise StereoInputError(f"`left` and `right` must have the same shape, got left {left_arr.shape} "
+                               f"and right {right_arr.shape}")
+    if left_arr.dtype != right_arr.dtype:
+        raise StereoInputError(f"`left` and `right` must have the same dtype, got left {left_arr.dtype} "
+                               f"and right {right_arr.dtype}")
+    return left_arr, right_arr
+
+
+def to_gray_uint8(left: Any, right: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Convert a pair once to C-contiguous (H, W) uint8 grey, both with the same mapping.
+
+    The pair is checked as by ``compute_disparity``: (H, W) or (H, W, 3) arrays of dtype uint8,
+    uint16, float32 or float64, the same shape and dtype, finite values; else ``StereoInputError``.
 
     uint8: colour via ``cv2.COLOR_BGR2GRAY``, grey as is (no copy when already contiguous).
     uint16 and float: grey with the same weights in float64, then one linear map shared by both
@@ -245,6 +254,14 @@ def to_gray_uint8(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.n
     rounded). Sharing the map keeps the brightness relation between the cameras; the percentiles
     make a few hot pixels or a 12-bit range in a 16-bit container harmless. A constant pair maps to 0.
     """
+    left_arr, right_arr = _check_images(left, right)
+    _check_finite("left", left_arr)
+    _check_finite("right", right_arr)
+    return _to_gray_uint8(left_arr, right_arr)
+
+
+def _to_gray_uint8(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``to_gray_uint8`` on a pair already checked (by ``_check_pair`` and ``_check_finite``)."""
     if left.dtype == np.uint8:
         def convert(arr: np.ndarray) -> np.ndarray:
             if arr.ndim == 3:
@@ -365,7 +382,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
             memory_checked.add(key)
     _check_finite("left", left_arr)
     _check_finite("right", right_arr)
-    gray_left, gray_right = to_gray_uint8(left_arr, right_arr)
+    gray_left, gray_right = _to_gray_uint8(left_arr, right_arr)
     t1 = time.perf_counter()
 
     disparity, disparity_right, core_timings = _core().sgm_match(

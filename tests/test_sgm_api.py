@@ -205,6 +205,19 @@ class TestComputeDisparity:
         z = np.zeros((8, 8), np.float32)
         assert not to_gray_uint8(z, z)[0].any()
 
+    @pytest.mark.parametrize("left, right, needle", [
+        (np.zeros((8, 8), np.uint8), np.zeros((8, 8), np.float64), "same dtype"),
+        (np.zeros((8, 8), np.uint8), np.zeros((8, 9), np.uint8), "same shape"),
+        (np.full((8, 8), np.nan), np.zeros((8, 8)), "`left` must hold finite values, got 64 NaN"),
+        (np.zeros((8, 8), np.float32), np.full((8, 8), np.inf, np.float32), "`right` must hold finite"),
+        (np.zeros((8, 8), np.int32), np.zeros((8, 8), np.int32), "dtype uint8, uint16"),
+        (np.zeros((8, 8, 4), np.uint8), np.zeros((8, 8, 4), np.uint8), "grey (H, W) or colour"),
+        ("left.png", np.zeros((8, 8), np.uint8), "read_image"),
+    ])
+    def test_grey_conversion_checks_the_pair(self, left, right, needle):
+        with pytest.raises(StereoInputError, match=re.escape(needle)):
+            to_gray_uint8(left, right)
+
     def test_stereo_matcher_reuses_checks(self, monkeypatch):
         left, right = _shift_pair()
         m = StereoMatcher(num_disparities=16)
@@ -420,7 +433,7 @@ class TestErrors:
         def boom(*args, **kwargs):
             raise AssertionError("allocated before the memory check")
 
-        monkeypatch.setattr(matcher_mod, "to_gray_uint8", boom)
+        monkeypatch.setattr(matcher_mod, "_to_gray_uint8", boom)
         need = estimate_memory(pair[0].shape, SGMParams(num_disparities=16))
         with pytest.raises(MemoryBudgetError, match=r"needs about 0\.00 GiB .*num_disparities.*downscale"):
             compute_disparity(*pair, num_disparities=16, memory_limit=need - 1)
