@@ -15,7 +15,7 @@ import logging
 import math
 import os
 import re
-import tempfile
+import secrets
 from pathlib import Path
 from typing import Any
 
@@ -68,24 +68,34 @@ def _read_text(path: _PathLike, what: str) -> tuple[Path, str]:
 
 
 def _atomic_write_text(path: _PathLike, text: str) -> None:
+    """Write ``text`` (UTF-8, ``\\n``) so that ``path`` appears complete or not at all.
+
+    Same behaviour as ``stereo_classic.io.atomic_write`` (calib is a leaf package and must not import
+    stereo_classic): a temporary file in the same folder created with mode 0o666 so that the umask decides
+    the permissions, flushed and fsynced, renamed over ``path``, removed if anything fails.
+    """
     path = Path(path)
     if path.is_dir():
         raise CalibrationError(f"output path {path} is a directory")
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise FileNotFoundError(f"output folder does not exist: {parent}")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=parent)
+    tmp = parent / f".{path.name}.{secrets.token_hex(6)}.tmp"
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as handle:
+        handle = os.fdopen(fd, "w", encoding="utf-8", newline="\n")
+    except BaseException:
+        os.close(fd)
+        tmp.unlink(missing_ok=True)
+        raise
+    try:
+        with handle:
             handle.write(text)
             handle.flush()
             os.fsync(handle.fileno())
         os.replace(tmp, path)
     except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
+        tmp.unlink(missing_ok=True)
         raise
 
 

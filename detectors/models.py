@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import os
-import tempfile
+import secrets
 import urllib.error
 import urllib.request
 from dataclasses import dataclass
@@ -139,10 +139,19 @@ def download_model(name: str, *, url: str | None = None, sha256: str | None = No
     folder = Path(dest_dir) if dest_dir is not None else cache_dir()
     folder.mkdir(parents=True, exist_ok=True)
     target = folder / f"{name}.onnx"
-    fd, tmp = tempfile.mkstemp(prefix=f".{name}.", suffix=".part", dir=folder)
+    # same behaviour as stereo_classic.io.atomic_write (detectors is a leaf package and must not import
+    # stereo_classic): mode 0o666 so that the umask decides, flushed and fsynced, removed on any failure
+    tmp = folder / f".{name}.{secrets.token_hex(6)}.part"
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+    try:
+        out = os.fdopen(fd, "wb")
+    except BaseException:
+        os.close(fd)
+        tmp.unlink(missing_ok=True)
+        raise
     try:
         h = hashlib.sha256()
-        with os.fdopen(fd, "wb") as out, urllib.request.urlopen(url, timeout=timeout) as resp:
+        with out, urllib.request.urlopen(url, timeout=timeout) as resp:
             for chunk in iter(lambda: resp.read(1 << 20), b""):
                 h.update(chunk)
                 out.write(chunk)
@@ -153,10 +162,7 @@ def download_model(name: str, *, url: str | None = None, sha256: str | None = No
             raise ModelError(f"download of {name} from {url} has sha256 {got}, expected {sha256}; nothing was saved")
         os.replace(tmp, target)
     except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
+        tmp.unlink(missing_ok=True)
         raise
     return target
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 
 import cv2
 import numpy as np
@@ -191,6 +192,32 @@ def test_writer_is_atomic_and_checks(tmp_path):
         RIG.to_opencv_yaml(tmp_path / "missing" / "rig.yaml")
     with pytest.raises(CalibrationError, match="directory"):
         RIG.to_opencv_yaml(tmp_path)
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o002, 0o077])
+def test_written_files_follow_the_umask(tmp_path, umask):
+    old = os.umask(umask)
+    try:
+        RIG.to_opencv_yaml(tmp_path / "rig.yaml")
+        RIG.rectify().to_opencv_yaml(tmp_path / "rect.yaml")
+    finally:
+        os.umask(old)
+    for name in ("rig.yaml", "rect.yaml"):
+        assert (tmp_path / name).stat().st_mode & 0o777 == 0o666 & ~umask  # like io.atomic_write, not 0o600
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rect.yaml", "rig.yaml"]  # no temporary left
+
+
+def test_failed_write_leaves_the_old_file_and_no_temporary(tmp_path, monkeypatch):
+    path = tmp_path / "rig.yaml"
+    path.write_text("old")
+
+    def boom(fd):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "fsync", boom)
+    with pytest.raises(OSError, match="disk full"):
+        RIG.to_opencv_yaml(path)
+    assert path.read_text() == "old" and [p.name for p in tmp_path.iterdir()] == ["rig.yaml"]
 
 
 # --------------------------------------------------------------------------- ROS camera_info

@@ -6,6 +6,7 @@ import functools
 import hashlib
 import http.server
 import json
+import os
 import socket
 import threading
 
@@ -179,3 +180,15 @@ class TestCli:
         cv2.imwrite(str(img), np.zeros((10, 10, 3), np.uint8))
         assert main(["detect", str(img), "--model", str(tmp_path / "none.onnx")]) == 1
         assert "does not exist" in capsys.readouterr().err
+
+
+def test_downloaded_model_mode_follows_the_umask(isolated, tmp_path):
+    src = tmp_path / "src.onnx"
+    src.write_bytes(PAYLOAD)
+    old = os.umask(0o022)
+    try:
+        out = download_model("tiny", url=src.as_uri(), sha256=PAYLOAD_SHA, dest_dir=tmp_path / "dest")
+    finally:
+        os.umask(old)
+    assert out.stat().st_mode & 0o777 == 0o644  # like io.atomic_write, not mkstemp's 0o600
+    assert [p.name for p in (tmp_path / "dest").iterdir()] == ["tiny.onnx"]
