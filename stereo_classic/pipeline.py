@@ -160,19 +160,23 @@ class Localizer:
         return dets, (time.perf_counter() - t0) * 1e3
 
     def _check_size(self, left: np.ndarray, right: np.ndarray) -> None:
+        """StereoInputError naming the parameter (`left`, `right`, `rig`) when the sizes do not fit."""
+        from stereo_classic.matcher import StereoInputError
+
         for name, img in (("left", left), ("right", right)):
             if not isinstance(img, np.ndarray) or img.ndim not in (2, 3):
-                raise ValueError(f"`{name}` must be an (H, W) or (H, W, 3) image array, got "
-                                 f"{type(img).__name__} {getattr(img, 'shape', '')}")
-        if left.shape != right.shape:
-            raise ValueError(f"left and right images differ in size: {left.shape[1]}x{left.shape[0]} and "
-                             f"{right.shape[1]}x{right.shape[0]}")
+                raise StereoInputError(f"`{name}` must be an (H, W) or (H, W, 3) image array, got "
+                                       f"{type(img).__name__} {getattr(img, 'shape', '')}")
+        if left.shape[:2] != right.shape[:2]:
+            raise StereoInputError(f"`left` and `right` images differ in size: {left.shape[1]}x{left.shape[0]} "
+                                   f"and {right.shape[1]}x{right.shape[0]}")
         raw = getattr(self.rig, "has_maps", False)
         size = tuple(int(s) for s in (self.rig.raw_image_size if raw else self.rig.image_size))
         if size != (left.shape[1], left.shape[0]):
-            raise ValueError(f"the calibration is for {size[0]}x{size[1]}{' raw' if raw else ''} images but the "
-                             f"images are {left.shape[1]}x{left.shape[0]}; give the matching calibration "
-                             "(resized images: rig.scaled(f), or --scale on the command line)")
+            raise StereoInputError(
+                f"`rig`: the calibration is for {size[0]}x{size[1]}{' raw' if raw else ''} images but `left` and "
+                f"`right` are {left.shape[1]}x{left.shape[0]}; give the matching calibration "
+                "(resized images: rig.scaled(f), or --scale on the command line)")
 
     def __call__(self, left: np.ndarray, right: np.ndarray) -> PipelineResult:
         """Run the pipeline on one pair (raw when the rig has rectification maps, else rectified)."""

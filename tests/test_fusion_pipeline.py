@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -75,13 +76,16 @@ def test_localizer_class_filter(scene):
 
 
 @pytest.mark.parametrize("make, match", [
-    (lambda l, r: (l, r[:, :200]), "differ"),
-    (lambda l, r: (l[:100], r[:100]), "calibration"),
-    (lambda l, r: ("left.png", r), "left"),
+    (lambda l, r: (l, r[:, :200]), "`left` and `right` images differ in size: 240x160 and 200x160"),
+    (lambda l, r: (l[:100], r[:100]), "`rig`: the calibration is for 240x160 images but `left` and `right` are 240x100"),
+    (lambda l, r: ("left.png", r), "`left` must be an"),
+    (lambda l, r: (l, None), "`right` must be an"),
 ])
 def test_localizer_bad_images(scene, make, match):
+    from stereo_classic.matcher import StereoInputError
+
     left, right, _ = scene
-    with Localizer(_rig(), None, {"num_disparities": 48}) as loc, pytest.raises(ValueError, match=match):
+    with Localizer(_rig(), None, {"num_disparities": 48}) as loc, pytest.raises(StereoInputError, match=match):
         loc(*make(left, right))
 
 
@@ -257,8 +261,17 @@ def test_property_localizer_well_formed_or_value_error(case):
         loc = Localizer(_rig(w, h), det, {"num_disparities": ndisp, "threads": 1})
         result = loc(left, right)
     except ValueError as exc:
-        assert str(exc) and "\n" not in str(exc)
-        event("ValueError")
+        # One line, and either one of the project's error classes or a message naming the parameter in
+        # backticks: numpy's or numba's own ValueError from deep inside is a defect, not a clear message.
+        from calib import CalibrationError
+        from stereo_classic.fusion import FusionInputError
+        from stereo_classic.matcher import MemoryBudgetError, StereoInputError
+
+        message = str(exc)
+        assert message and "\n" not in message
+        ours = isinstance(exc, (StereoInputError, MemoryBudgetError, FusionInputError, CalibrationError))
+        assert ours or re.search(r"`[A-Za-z_][A-Za-z0-9_]*`", message), f"{type(exc).__name__}: {message}"
+        event(type(exc).__name__)
         return
     event("result")
     assert result.disparity.disparity.shape == (h, w)
