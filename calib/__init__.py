@@ -12,7 +12,7 @@ from calib.boards import CharucoBoard, CheckerBoard, detect_board
 from calib.calibrate import CalibrationReport, calibrate_stereo
 from calib.errors import CalibrationError
 from calib.features import vertical_offset
-from calib.formats import load_rig, read_middlebury_calib
+from calib.formats import load_rig, read_kitti_calib, read_middlebury_calib, read_oakd_calib
 from calib.geometry import depth_from_disparity, disparity_from_depth, points_from_disparity
 from calib.rectified import RectificationWarning, RectifiedRig
 from calib.rig import StereoRig
@@ -31,6 +31,8 @@ __all__ = [
     "disparity_from_depth",
     "load_rig",
     "points_from_disparity",
+    "read_kitti_calib",
     "read_middlebury_calib",
+    "read_oakd_calib",
     "vertical_offset",
 ]

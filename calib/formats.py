@@ -38,6 +38,7 @@ __all__ = [
     "read_middlebury",
     "read_middlebury_calib",
     "read_oakd_json",
+    "read_oakd_calib",
     "read_ros_camera_info",
     "read_ros_pair",
     "KITTI_OBJECT_IMAGE_SIZE",
@@ -597,9 +598,9 @@ def read_middlebury(calib_txt: _PathLike, *, image_size: tuple[int, int] | None 
 
 
 # --------------------------------------------------------------------------------------------- OAK-D JSON
-def read_oakd_json(path: _PathLike) -> RectifiedRig:
-    """A :class:`RectifiedRig` from the stereodemo/OAK-D JSON: ``width``, ``height``, ``fx``, ``cx0``, ``cx1``,
-    ``cy``, ``baseline_meters`` (``fy`` optional; fx is used)."""
+def read_oakd_calib(path: _PathLike) -> dict[str, Any]:
+    """The stereodemo/OAK-D JSON object as stored, with ``depth_range`` (when present) checked and returned
+    as a ``(near, far)`` tuple of metres (finite, 0 < near < far)."""
     path, text = _read_text(path, "OAK-D calibration JSON")
     try:
         data = json.loads(text)
@@ -607,6 +608,21 @@ def read_oakd_json(path: _PathLike) -> RectifiedRig:
         raise CalibrationError(f"{path}: not valid JSON ({exc})") from None
     if not isinstance(data, dict):
         raise CalibrationError(f"{path}: expected a JSON object at the top level, got {type(data).__name__}")
+    if "depth_range" in data:
+        dr = data["depth_range"]
+        if not (isinstance(dr, list) and len(dr) == 2 and all(
+            not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) for v in dr
+        ) and 0 < dr[0] < dr[1]):
+            raise CalibrationError(f"{path}: key `depth_range` must be [near, far] in metres with 0 < near < far, got {dr!r}")
+        data["depth_range"] = (float(dr[0]), float(dr[1]))
+    return data
+
+
+def read_oakd_json(path: _PathLike) -> RectifiedRig:
+    """A :class:`RectifiedRig` from the stereodemo/OAK-D JSON: ``width``, ``height``, ``fx``, ``cx0``, ``cx1``,
+    ``cy``, ``baseline_meters`` (``fy`` optional; fx is used)."""
+    data = read_oakd_calib(path)
+    path = Path(path)
 
     def num(key: str) -> float:
         if key not in data:

@@ -35,7 +35,6 @@ Example
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import re
@@ -48,7 +47,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from calib import RectifiedRig
+from calib import RectifiedRig, read_kitti_calib, read_middlebury_calib, read_oakd_calib
 from stereo_classic.io import (
     FileFormatError,
     read_image,
@@ -236,15 +235,6 @@ def _read_mask(path: Path, shape: tuple[int, int]) -> np.ndarray:
     return mask == (255 if mask.dtype == np.uint8 else 65535)
 
 
-def _parse_key_values(path: Path) -> dict[str, str]:
-    out: dict[str, str] = {}
-    for line in path.read_text(encoding="utf-8", errors="replace").splitlines():
-        if "=" in line:
-            key, value = line.split("=", 1)
-            out[key.strip()] = value.strip()
-    return out
-
-
 # --------------------------------------------------------------------------------------------------
 # Middlebury
 # --------------------------------------------------------------------------------------------------
@@ -279,12 +269,11 @@ def load_middlebury2014(folder: str | os.PathLike) -> Scene:
     calib_path = d / "calib.txt"
     if calib_path.is_file():
         rig = RectifiedRig.from_middlebury(calib_path, image_size=(hw[1], hw[0]))
-        ndisp = _parse_key_values(calib_path).get("ndisp")
+        ndisp = read_middlebury_calib(calib_path).get("ndisp")
         if ndisp is not None:
-            try:
-                max_disp = int(float(ndisp))
-            except ValueError:
-                raise FileFormatError(f"{calib_path}: ndisp must be a number, got {ndisp!r}") from None
+            if isinstance(ndisp, np.ndarray) or not (math.isfinite(ndisp) and float(ndisp).is_integer()):
+                raise FileFormatError(f"{calib_path}: ndisp must be a whole number, got {ndisp!r}")
+            max_disp = int(ndisp)
     if max_disp is None or max_disp <= 0:
         max_disp = _range_from_gt(gt)
     return Scene(d.name, left, right, gt, mask, rig, None, max_disp, None, "middlebury2014", d)
@@ -419,14 +408,10 @@ _OAKD_JSON = "stereodemo_calibration.json"
 
 
 def _oakd_max_disparity(json_path: Path, rig: Any) -> int | None:
-    try:
-        depth_range = json.loads(json_path.read_text(encoding="utf-8")).get("depth_range")
-        near = float(depth_range[0])
-    except (ValueError, TypeError, IndexError, KeyError, AttributeError):
+    depth_range = read_oakd_calib(json_path).get("depth_range")  # checked there: 0 < near < far
+    if depth_range is None:
         return None
-    if not (near > 0 and math.isfinite(near)):
-        return None
-    top = rig.focal_px * rig.baseline_m / near - rig.doffs
+    top = rig.focal_px * rig.baseline_m / depth_range[0] - rig.doffs
     return max(16, int(math.ceil(top / 16.0)) * 16) if top > 0 else None
 
 
@@ -460,35 +445,25 @@ def iter_oakd(folder: str | os.PathLike) -> Iterator[Scene]:
 # --------------------------------------------------------------------------------------------------
 
 
-def read_kitti_calib_file(path: str | os.PathLike) -> dict[str, np.ndarray]:
-    """Parse a KITTI calibration text file (``key: numbers`` per line) into float64 arrays.
+def read_kitti_calib_file(path: str | os.PathLike) -> dict[str, np.ndarray | None]:
+    """Every ``key: numbers`` line of a KITTI calibration text file, as float64 arrays.
 
-    Works for object ``calib.txt`` (``P0``..``P3``, ``R0_rect``, ``Tr_velo_to_cam``) and raw
-    ``calib_*_to_*.txt`` files. Non-numeric lines (``calib_time: ...``) are skipped.
+    An alias of :func:`calib.read_kitti_calib` (one parser for the format): object ``calib.txt``
+    (``P0``..``P3``, ``R0_rect``, ``Tr_velo_to_cam``) and raw ``calib_*_to_*.txt`` files; non-numeric
+    values (``calib_time: ...``) are None; a malformed line raises :class:`calib.CalibrationError`.
     """
     p = Path(os.fspath(path))
     if not p.is_file():
         raise FileNotFoundError(f"KITTI calibration file not found: {p}")
-    out: dict[str, np.ndarray] = {}
-    for line in p.read_text(encoding="utf-8", errors="replace").splitlines():
-        if ":" not in line:
-            continue
-        key, _, rest = line.partition(":")
-        try:
-            values = np.array([float(v) for v in rest.split()], dtype=np.float64)
-        except ValueError:
-            continue
-        if values.size:
-            out[key.strip()] = values
-    if not out:
-        raise FileFormatError(f"{p} holds no 'key: numbers' lines; not a KITTI calibration file")
-    return out
+    return read_kitti_calib(p)
 
 
-def _calib_matrix(calib: dict[str, np.ndarray], keys: tuple[str, ...], shape: tuple[int, int], path: Path) -> np.ndarray:
+def _calib_matrix(calib: dict[str, np.ndarray | None], keys: tuple[str, ...], shape: tuple[int, int], path: Path) -> np.ndarray:
     for key in keys:
         if key in calib:
             v = calib[key]
+            if v is None:
+                raise FileFormatError(f"{path}: {key} must hold numbers")
             if v.size != shape[0] * shape[1]:
                 raise FileFormatError(f"{path}: {key} must have {shape[0] * shape[1]} numbers, got {v.size}")
             if not np.isfinite(v).all():

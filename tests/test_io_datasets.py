@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from calib import CalibrationError, read_kitti_calib
 from stereo_classic.datasets import (
     Scene,
     demo_scene,
@@ -460,3 +461,53 @@ def test_project_lidar_property(xyz: list[tuple[float, float, float]], size: tup
     if np.isfinite(depth).any():
         assert np.nanmin(depth) > 0.1
         assert np.isin(depth[np.isfinite(depth)], cam[:, 2]).all()
+
+
+# ------------------------------------------------------------------------------- one parser per format
+
+
+def test_kitti_calib_file_is_calibs_strict_parser(tmp_path: Path) -> None:
+    path = tmp_path / "calib.txt"
+    _kitti_rect_calib(path)
+    assert read_kitti_calib_file(path).keys() == read_kitti_calib(path).keys()
+    assert read_kitti_calib_file(path)["calib_time"] is None
+    path.write_text(path.read_text() + "P_rect_02 721 0 609\n")  # a line without `key:` is an error, not skipped
+    with pytest.raises(CalibrationError, match="line 5 is not `key: values`"):
+        read_kitti_calib_file(path)
+    with pytest.raises(FileNotFoundError, match="missing.txt"):
+        read_kitti_calib_file(tmp_path / "missing.txt")
+
+
+def _middlebury_folder(d: Path, ndisp: str) -> None:
+    left, right = _pair(np.random.default_rng(11))
+    write_image(d / "im0.png", left)
+    write_image(d / "im1.png", right)
+    (d / "calib.txt").write_text(
+        "cam0=[50 0 15; 0 50 10; 0 0 1]\ncam1=[50 0 17; 0 50 10; 0 0 1]\ndoffs=2\nbaseline=100\n"
+        f"width=30\nheight=20\nndisp={ndisp}\n"
+    )
+
+
+def test_middlebury_ndisp_read_by_calib(tmp_path: Path) -> None:
+    _middlebury_folder(tmp_path, "48")
+    assert load_middlebury2014(tmp_path).max_disparity == 48
+    _middlebury_folder(tmp_path, "47.5")  # was truncated to 47 silently
+    with pytest.raises(FileFormatError, match="ndisp must be a whole number"):
+        load_middlebury2014(tmp_path)
+    (tmp_path / "calib.txt").write_text((tmp_path / "calib.txt").read_text() + "garbage line\n")
+    with pytest.raises(CalibrationError, match="is not `key=value`"):
+        load_middlebury2014(tmp_path)
+
+
+@pytest.mark.parametrize("depth_range", [[0, 5], [2.0, 1.0], ["1", 5], [1.0], "near"])
+def test_oakd_bad_depth_range_is_an_error(tmp_path: Path, depth_range: object) -> None:
+    left, right = _pair(np.random.default_rng(12))
+    write_image(tmp_path / "a_left.png", left)
+    write_image(tmp_path / "a_right.png", right)
+    calib = {"width": 30, "height": 20, "baseline_meters": 0.1, "fx": 50.0, "cx0": 15.0, "cx1": 15.0, "cy": 10.0}
+    path = tmp_path / "stereodemo_calibration.json"
+    path.write_text(json.dumps({**calib, "depth_range": [0.25, 5.0]}))
+    assert load_oakd(tmp_path, "a").max_disparity == 32  # 50 * 0.1 / 0.25 = 20 px -> 32
+    path.write_text(json.dumps({**calib, "depth_range": depth_range}))  # was silently ignored
+    with pytest.raises(CalibrationError, match="`depth_range`"):
+        load_oakd(tmp_path, "a")
