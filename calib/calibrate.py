@@ -91,7 +91,8 @@ def _load(item: Any, name: str) -> np.ndarray:
         path = Path(item)
         if not path.is_file():
             raise FileNotFoundError(f"calibration image not found: {path}")
-        image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+        # imdecode of the bytes, not cv2.imread: that returns None on non-ASCII paths on Windows
+        image = cv2.imdecode(np.fromfile(path, np.uint8), cv2.IMREAD_GRAYSCALE)
         if image is None:
             raise CalibrationError(f"calibration image {path} could not be decoded (not an image or corrupt)")
         return image

@@ -97,9 +97,12 @@ def format_table(rows: Sequence[dict]) -> str:
 if __name__ == "__main__":  # python -m detectors.bench MODEL IMAGE...
     import sys
 
-    import cv2
+    from detectors.imageio import read_image
 
-    imgs = [cv2.imread(p) for p in sys.argv[2:]]
-    if not imgs or any(i is None for i in imgs):
-        sys.exit("usage: python -m detectors.bench MODEL IMAGE... (images must be readable)")
+    if len(sys.argv) < 3:
+        sys.exit("usage: python -m detectors.bench MODEL IMAGE...")
+    try:
+        imgs = [read_image(p) for p in sys.argv[2:]]
+    except (FileNotFoundError, ValueError) as exc:
+        sys.exit(f"detectors.bench: {exc}")
     print(format_table(measure_latency(sys.argv[1], imgs)))

@@ -77,6 +77,7 @@ def _fetch(args) -> int:
 def _detect(args) -> int:
     import cv2
 
+    from detectors.imageio import read_image
     from detectors.onnx_detector import OnnxDetector
 
     try:
@@ -93,9 +94,10 @@ def _detect(args) -> int:
 
         images = tqdm(images, unit="image", file=sys.stderr)
     for path in images:
-        image = cv2.imread(path, cv2.IMREAD_COLOR)
-        if image is None:
-            log.error("cannot read image %s (missing or not an image)", path)
+        try:
+            image = read_image(path, cv2.IMREAD_COLOR)
+        except (FileNotFoundError, ValueError) as exc:
+            log.error("cannot read image: %s", exc)
             status = 1
             continue
         dets = detector.detect(image)

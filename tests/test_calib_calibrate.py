@@ -263,3 +263,13 @@ def test_cli_too_few_views_is_a_runtime_error(tmp_path, capsys):
     assert code == 1
     assert "views are usable" in capsys.readouterr().err
     assert not (tmp_path / "r.yaml").exists()
+
+
+def test_calibration_images_are_read_on_any_path(tmp_path, monkeypatch):
+    from calib.calibrate import _load
+
+    img = np.arange(6 * 9, dtype=np.uint8).reshape(6, 9)
+    path = tmp_path / "vue_gauche_é.png"
+    path.write_bytes(cv2.imencode(".png", img)[1].tobytes())
+    monkeypatch.setattr(cv2, "imread", lambda *a, **k: None)  # what it does on a non-ASCII path on Windows
+    np.testing.assert_array_equal(_load(path, "left_images[0]"), img)
