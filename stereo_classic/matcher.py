@@ -217,11 +217,21 @@ def _check_finite(name: str, arr: np.ndarray) -> None:
 
 
 def _gray_float(arr: np.ndarray) -> np.ndarray:
-    """float64 grey of an (H, W) or (H, W, 3) BGR array (ITU-R 601 weights, as cv2.COLOR_BGR2GRAY)."""
+    """float64 grey of an (H, W) or (H, W, 3) BGR array (ITU-R 601 weights, as cv2.COLOR_BGR2GRAY).
+
+    Accumulated in place, one channel temporary at a time: at most 16 bytes per pixel while it runs
+    (the result and one float64 channel), the same values as ``0.114 * b + 0.587 * g + 0.299 * r``.
+    """
     if arr.ndim == 2:
         return arr.astype(np.float64)
-    b, g, r = (arr[:, :, i].astype(np.float64) for i in range(3))
-    return 0.114 * b + 0.587 * g + 0.299 * r
+    out = arr[:, :, 0].astype(np.float64)
+    out *= 0.114
+    for channel, weight in ((1, 0.587), (2, 0.299)):
+        term = arr[:, :, channel].astype(np.float64)
+        term *= weight
+        out += term
+        del term
+    return out
 
 
 def _sample(gray: np.ndarray) -> np.ndarray:
@@ -269,23 +279,43 @@ def _to_gray_uint8(left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.
             return np.ascontiguousarray(arr)
 
         return convert(left), convert(right)
-    gray_left, gray_right = _gray_float(left), _gray_float(right)
-    samples = np.concatenate([_sample(gray_left), _sample(gray_right)])
-    lo, hi = (float(v) for v in np.percentile(samples, _SCALE_PERCENTILES))
+    grays = [_gray_float(left), _gray_float(right)]
+    samples = np.concatenate([_sample(grays[0]), _sample(grays[1])])
+    lo, hi = (float(v) for v in np.percentile(samples, _SCALE_PERCENTILES, overwrite_input=True))
     if not hi > lo:
         lo, hi = float(samples.min()), float(samples.max())
+    del samples
     out = []
-    for gray in (gray_left, gray_right):
+    for i in range(2):
+        gray, grays[i] = grays[i], None  # mapped in place, freed once converted
         if hi > lo:
             # Divide before subtracting so that extreme float64 values (1e308) cannot overflow.
             scale = max(abs(lo), abs(hi))
             span = hi / scale - lo / scale
-            mapped = (gray / scale - lo / scale) * (255.0 / span)
-            np.clip(mapped, 0.0, 255.0, out=mapped)
-            out.append(np.rint(mapped).astype(np.uint8))
+            gray /= scale
+            gray -= lo / scale
+            gray *= 255.0 / span
+            np.clip(gray, 0.0, 255.0, out=gray)
+            np.rint(gray, out=gray)
+            out.append(gray.astype(np.uint8))
         else:
             out.append(np.zeros(gray.shape, np.uint8))
+        del gray
     return out[0], out[1]
+
+
+def _conversion_bytes(image_shape: tuple[int, ...], dtype: Any) -> int:
+    """Peak bytes of ``to_gray_uint8`` beyond its inputs: the uint8 outputs, and for uint16/float the
+    float64 greys (the second one built next to the first: 24 B/px) or, while the percentiles are
+    found, both greys and the float64 samples of both images (16 B/px + 8 B per sample)."""
+    height, width = int(image_shape[0]), int(image_shape[1])
+    pixels = height * width
+    out = 2 * pixels  # the two uint8 grey images
+    if np.dtype(dtype) != np.uint8:
+        step = max(1, int(math.ceil(math.sqrt(pixels / _SCALE_SAMPLES))))
+        samples = 2 * (-(-height // step)) * (-(-width // step))
+        out += max(3 * 8 * pixels, 2 * 8 * pixels + 8 * samples)
+    return out
 
 
 # --------------------------------------------------------------------------------------------------
@@ -322,23 +352,25 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
     core = _core().memory_bytes(height, width, params.num_disparities, paths=params.paths,
                                 lr_check=params.lr_check is not None, cost=params.cost,
                                 block_size=params.block_size)
-    conversion = 2 * pixels  # the two uint8 grey images
-    if np.dtype(dtype) != np.uint8:
-        conversion += 3 * 8 * pixels  # float64 grey of one image and the mapping temporary, both images
+    conversion = _conversion_bytes((height, width), dtype)
     post = (4 + 2 + 4 + 1) * pixels  # speckle: float32 copy, int16 scaled copy, masks
     if params.fill_holes:
         post += (5 * 8 + 4 * 4) * pixels  # row indices (int64) and float temporaries of the fill
     return int(core + conversion + post)
 
 
-def _check_memory(shape: tuple[int, ...], dtype: Any, params: SGMParams) -> int:
+def _check_memory(shape: tuple[int, ...], dtype: Any, params: SGMParams, reserved: int = 0) -> int:
+    """Estimate for this shape; MemoryBudgetError when it plus ``reserved`` (bytes another call of the
+    same matcher is using) exceeds the limit."""
     need = estimate_memory(tuple(shape), params, dtype=dtype)
     limit = params.effective_memory_limit
-    if need > limit:
+    if need + reserved > limit:
         height, width = shape[0], shape[1]
+        busy = (f" while another thread's call on the same StereoMatcher holds about {reserved / _GiB:.2f} GiB "
+                f"({reserved} bytes)" if reserved else "")
         raise MemoryBudgetError(
             f"matching {width} x {height} px with num_disparities={params.num_disparities} needs about "
-            f"{need / _GiB:.2f} GiB ({need} bytes), above the memory limit of {limit / _GiB:.2f} GiB "
+            f"{need / _GiB:.2f} GiB ({need} bytes){busy}, above the memory limit of {limit / _GiB:.2f} GiB "
             f"({limit} bytes); use a smaller disparity "
             f"range (num_disparities) or downscale the images (e.g. cv2.resize by 0.5 and halve the range), "
             f"or raise `memory_limit` / $STEREO_CLASSIC_MEMORY_LIMIT")
@@ -371,12 +403,16 @@ def _border_mask(shape: tuple[int, int], params: SGMParams) -> np.ndarray:
 
 
 def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None = None,
-           workspace: Any = None) -> DisparityMap:
+           workspace: Any = None, reserved: int = 0) -> DisparityMap:
+    """``reserved``: bytes a busy call of the same StereoMatcher holds; when > 0 the memory is checked
+    on every call, with ``reserved`` added (``memory_checked`` does not apply)."""
     t0 = time.perf_counter()
     left_arr, right_arr = _check_pair(left, right, params)
     _check_penalties(params)
     key = (left_arr.shape, left_arr.dtype)
-    if memory_checked is None or key not in memory_checked:
+    if reserved > 0:
+        _check_memory(left_arr.shape, left_arr.dtype, params, reserved)
+    elif memory_checked is None or key not in memory_checked:
         _check_memory(left_arr.shape, left_arr.dtype, params)
         if memory_checked is not None:
             memory_checked.add(key)
@@ -476,8 +512,9 @@ class StereoMatcher:
     Per image size and dtype the memory budget is checked once; the kernels' sum volume and row
     buffers (about ``2 * H * W * num_disparities`` bytes) are kept and reused, which saves their
     allocation and page faults on every frame. The buffers stay allocated while the matcher lives
-    (they are replaced when the image size changes). Safe to share between threads: a call that
-    finds the buffers busy allocates its own.
+    (they are replaced when the image size changes; ``release()`` frees them). Safe to share between
+    threads: a call that finds the buffers busy allocates its own, after checking that its estimate
+    plus the busy call's fits in the memory limit (``MemoryBudgetError`` otherwise).
 
     >>> matcher = StereoMatcher(num_disparities=128)        # doctest: +SKIP
     >>> for left, right in frames:                          # doctest: +SKIP
@@ -489,6 +526,7 @@ class StereoMatcher:
         self._memory_checked: set[tuple[tuple[int, ...], np.dtype]] = set()
         self._workspace: Any = None
         self._lock = threading.Lock()
+        self._busy_bytes = 0  # estimate of the call holding the lock (the buffers and its temporaries)
 
     @property
     def params(self) -> SGMParams:
@@ -498,14 +536,25 @@ class StereoMatcher:
     def compute(self, left: Any, right: Any) -> DisparityMap:
         """Disparity of one rectified pair; see ``compute_disparity``."""
         if not self._lock.acquire(blocking=False):  # another thread is using the buffers
-            return _match(left, right, self._params, self._memory_checked)
+            # This call allocates a full set of its own next to the busy one: check both together.
+            return _match(left, right, self._params, self._memory_checked, reserved=max(1, self._busy_bytes))
         try:
+            self._busy_bytes = self._estimate(left)
             if self._workspace is None:
                 workspace_cls = getattr(_core(), "Workspace", None)
                 self._workspace = workspace_cls() if workspace_cls is not None else False
             return _match(left, right, self._params, self._memory_checked, self._workspace or None)
         finally:
+            self._busy_bytes = 0
             self._lock.release()
+
+    def _estimate(self, image: Any) -> int:
+        """Bytes a call on ``image`` uses (0 when it is no image: the call itself reports that)."""
+        try:
+            arr = np.asarray(image)
+            return estimate_memory(tuple(arr.shape), self._params, dtype=arr.dtype)
+        except (TypeError, ValueError):
+            return 0
 
     def release(self) -> None:
         """Free the buffers kept between frames (the next frame allocates them again)."""

@@ -284,6 +284,69 @@ class TestComputeDisparity:
         for dmap in maps:
             np.testing.assert_array_equal(dmap.disparity, expected)
 
+    def test_busy_shared_matcher_checks_memory_for_its_own_buffers(self, monkeypatch):
+        import threading
+
+        left, right = _shift_pair(seed=6)
+        need = estimate_memory(left.shape, SGMParams(num_disparities=16, threads=1))
+        m = StereoMatcher(num_disparities=16, threads=1, memory_limit=need + need // 2)  # one call fits, two do not
+        expected = m.compute(left, right).disparity  # the size is checked (and remembered) once
+        core = matcher_mod._core()
+        inside, go_on = threading.Event(), threading.Event()
+        real = core.sgm_match
+
+        def held(*a, **kw):
+            inside.set()
+            assert go_on.wait(30)
+            return real(*a, **kw)
+
+        monkeypatch.setattr(core, "sgm_match", held)
+        result = {}
+        busy = threading.Thread(target=lambda: result.setdefault("map", m.compute(left, right)))
+        busy.start()
+        try:
+            assert inside.wait(30)
+            with pytest.raises(MemoryBudgetError, match="another thread's call on the same StereoMatcher"):
+                m.compute(left, right)
+        finally:
+            go_on.set()
+            busy.join(30)
+        np.testing.assert_array_equal(result["map"].disparity, expected)
+        # with room for both, the busy fallback works and gives the same answer
+        roomy = StereoMatcher(num_disparities=16, threads=1, memory_limit=3 * need)
+        inside.clear(), go_on.clear()
+        busy = threading.Thread(target=lambda: result.update(map=roomy.compute(left, right)))
+        busy.start()
+        try:
+            assert inside.wait(30)
+            go_on.set()  # the second call goes through sgm_match too
+            np.testing.assert_array_equal(roomy.compute(left, right).disparity, expected)
+        finally:
+            go_on.set()
+            busy.join(30)
+
+    @pytest.mark.parametrize("shape, dtype", [
+        ((300, 400, 3), np.float64), ((300, 400, 3), np.uint16), ((300, 400), np.float64),
+        ((300, 400, 3), np.float32), ((1200, 1000, 3), np.float32), ((300, 400, 3), np.uint8),
+    ])
+    def test_grey_conversion_stays_within_the_memory_estimate(self, shape, dtype):
+        import tracemalloc
+
+        rng = np.random.default_rng(2)
+        a, b = (rng.uniform(0, 1000, shape).astype(dtype) for _ in range(2))
+        to_gray_uint8(a[:8, :8], b[:8, :8])  # first-call allocations (imports, caches) out of the way
+        params = SGMParams(num_disparities=16)
+        pixels = shape[0] * shape[1]
+        counted = estimate_memory(shape, params, dtype=dtype) - estimate_memory(shape, params) + 2 * pixels
+        tracemalloc.start()
+        try:
+            base = tracemalloc.get_traced_memory()[0]
+            to_gray_uint8(a, b)
+            peak = tracemalloc.get_traced_memory()[1] - base
+        finally:
+            tracemalloc.stop()
+        assert peak <= counted + 64 * 1024, (peak / pixels, counted / pixels)
+
     def test_fill_holes_option_makes_map_denser(self):
         left, right = _shift_pair(shift=9)
         sparse = compute_disparity(left, right, num_disparities=16, uniqueness=5)
