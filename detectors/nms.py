@@ -76,7 +76,6 @@ def nms(
         cls = np.zeros(n, np.int64)
     limit = n if max_detections is None else int(max_detections)
     order = np.argsort(-scores, kind="stable")
-    area = (boxes[:, 2] - boxes[:, 0]) * (boxes[:, 3] - boxes[:, 1])
     thr = float(iou_threshold)
     keep: list[int] = []
     while order.size and len(keep) < limit:
@@ -85,11 +84,6 @@ def nms(
         rest = order[1:]
         if not rest.size:
             break
-        b = boxes[rest]
-        iw = np.minimum(boxes[i, 2], b[:, 2]) - np.maximum(boxes[i, 0], b[:, 0])
-        ih = np.minimum(boxes[i, 3], b[:, 3]) - np.maximum(boxes[i, 1], b[:, 1])
-        inter = np.clip(iw, 0, None) * np.clip(ih, 0, None)
-        union = area[i] + area[rest] - inter
-        iou = np.divide(inter, union, out=np.zeros_like(inter), where=union > 0)
+        iou = box_iou(boxes[i:i + 1], boxes[rest])[0]
         order = rest[(iou <= thr) | (cls[rest] != cls[i])]
     return np.asarray(keep, dtype=np.int64)
