@@ -200,9 +200,9 @@ def recognise_layout(
                            f"{3 * yolox_n} for this input size, and no metadata or file name says which")
     if fam == "yolox":
         strides = (8, 16, 32)
-        if n != sum((H // s) * (W // s) for s in strides):
-            raise fail(f"YOLOX raw output needs N = {sum((H // s) * (W // s) for s in strides)} grid cells "
-                       f"(strides 8/16/32), got {n}")
+        if n != grid_count(H, W, strides):
+            raise fail(f"YOLOX raw output needs N = {grid_count(H, W, strides)} grid cells "
+                       f"(strides 8/16/32, ceil(H/s) x ceil(W/s) each), got {n}")
         return OutputLayout("yolox", k - 5, (0,), strides=strides)
     if fam == "yolov5":
         return OutputLayout("yolov5", k - 5, (0,))
@@ -321,7 +321,7 @@ def _yolox(layout: OutputLayout, outs: list[np.ndarray], input_hw, conf: float) 
         return _empty()
     grids, strides = [], []
     for s in layout.strides:
-        gy, gx = np.mgrid[0:H // s, 0:W // s]
+        gy, gx = np.mgrid[0:math.ceil(H / s), 0:math.ceil(W / s)]  # as grid_count counts them
         grids.append(np.stack([gx.ravel(), gy.ravel()], axis=1))
         strides.append(np.full(gx.size, s))
     grid = np.concatenate(grids)[keep].astype(np.float64)

@@ -59,11 +59,11 @@ def _sorted(dets):
 def _yolox_raw(cells, width=416, height=416, num_classes=80):
     """cells: (stride, gx, gy, dx, dy, log_w, log_h, obj, cls, cls_score) -> ((1, N, 5+C) raw, expected xyxy input px)."""
     strides = (8, 16, 32)
-    offsets = np.cumsum([0] + [(height // s) * (width // s) for s in strides])
+    offsets = np.cumsum([0] + [math.ceil(height / s) * math.ceil(width / s) for s in strides])
     raw = np.zeros((1, offsets[-1], 5 + num_classes), np.float32)
     expected = []
     for s, gx, gy, dx, dy, lw, lh, obj, cls, sc in cells:
-        row = offsets[strides.index(s)] + gy * (width // s) + gx
+        row = offsets[strides.index(s)] + gy * math.ceil(width / s) + gx
         raw[0, row, :5] = (dx, dy, lw, lh, obj)
         raw[0, row, 5 + cls] = sc
         cx, cy = (gx + dx) * s, (gy + dy) * s
@@ -100,6 +100,21 @@ class TestYolox:
         dets = det.detect(_image(640, 640))  # r = 0.4 -> 256 x 256 at the top-left, back: x 2.5
         np.testing.assert_array_equal(dets.xyxy, (expected_in * 2.5).astype(np.float32))
         assert dets.labels == ["truck"]
+
+    def test_input_size_not_a_multiple_of_32(self):
+        # 336 x 264: stride-32 maps are ceil(336/32) x ceil(264/32) = 11 x 9, as a strided conv gives them;
+        # the last column/row of every stride must decode at its own place
+        cells = [(32, 10, 8, 0.25, 0.0, math.log(0.25), math.log(0.25), 1.0, 7, 0.75), (8, 41, 32, 0.5, 0.5, 0.0, 0.0, 1.0, 2, 0.9),
+                 (16, 0, 0, 0.5, 0.5, 0.0, 0.0, 1.0, 0, 0.8)]
+        raw, expected_in = _yolox_raw(cells, width=336, height=264)
+        assert raw.shape == (1, grid_count(264, 336, (8, 16, 32)), 85) == (1, 42 * 33 + 21 * 17 + 11 * 9, 85)
+        det = OnnxDetector(onnx_model({"output": raw}, input_shape=(1, 3, 264, 336)))
+        assert det.family == "yolox" and det.input_size == (336, 264)
+        dets = _sorted(det.detect(_image(336, 264)))  # r = 1: input pixels
+        assert dets.labels == ["car", "person", "truck"]
+        np.testing.assert_allclose(dets.xyxy, expected_in[[1, 2, 0]].astype(np.float32), atol=1e-4)
+        with pytest.raises(ValueError, match="YOLOX raw output needs N = 1842 grid cells"):
+            OnnxDetector(onnx_model({"output": raw[:, :-1]}, input_shape=(1, 3, 264, 336)), family="yolox")
 
     def test_preprocessing_bgr_0_255_top_left_pad_114(self):
         raw, _ = _yolox_raw(self.CELLS)
