@@ -12,47 +12,12 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from stereo_classic._cli_options import add_matcher_options, matcher_fields, option_names
 from stereo_classic.cli import UsageError
 
 __all__ = ["add_parser", "func"]
 
 log = logging.getLogger("stereo_classic.disparity")
-
-# (option, SGMParams field, type, help); defaults come from SGMParams so that --help shows them.
-_PARAM_OPTIONS: tuple[tuple[str, str, Any, str], ...] = (
-    ("--min-disparity", "min_disparity", int, "smallest disparity searched, px (may be negative)"),
-    ("--num-disparities", "num_disparities", int, "number of disparities searched (any positive integer)"),
-    ("--block-size", "block_size", int, "odd SAD window side, 1..21 (cost sad)"),
-    ("--p1", "p1", int, "penalty for a 1 px disparity change (default: by cost)"),
-    ("--p2", "p2", int, "penalty for larger disparity changes, > p1 (default: by cost)"),
-    ("--uniqueness", "uniqueness", float, "uniqueness ratio in percent, 0 = off"),
-    ("--speckle-size", "speckle_size", int, "remove regions smaller than this many pixels, 0 = off"),
-    ("--speckle-range", "speckle_range", float, "largest disparity step inside one speckle region, px"),
-    ("--threads", "threads", int, "worker threads for the kernels (default: one per CPU; the kernels use at most 2)"),
-)
-
-
-_METAVARS = {"min_disparity": "PX", "num_disparities": "N", "block_size": "N", "p1": "P1", "p2": "P2",
-             "uniqueness": "PCT", "speckle_size": "PIXELS", "speckle_range": "PX", "threads": "N"}
-
-
-def _census_window(text: str) -> tuple[int, int]:
-    parts = text.lower().replace(",", "x").split("x")
-    try:
-        if len(parts) != 2:
-            raise ValueError
-        return int(parts[0]), int(parts[1])
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT such as 9x7, got {text!r}") from None
-
-
-def _lr_check(text: str) -> float | None:
-    if text.lower() in ("off", "none", "no"):
-        return None
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number of pixels or 'off', got {text!r}") from None
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -73,28 +38,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         help="colourised disparity PNG (default: OUT with the suffix .png)")
     parser.add_argument("--no-png", action="store_true", help="do not write the colourised PNG")
     group = parser.add_argument_group("matcher parameters (see the README's parameter table)")
-    group.add_argument("--cost", choices=("census", "sad"), default=defaults.cost,
-                       help="matching cost: census (robust to exposure differences) or sad (the paper's); "
-                            "default %(default)s")
-    for option, name, kind, text in _PARAM_OPTIONS:
-        default = getattr(defaults, name)
-        suffix = " (default: %(default)s)" if default is not None else ""
-        group.add_argument(option, dest=name, type=kind, default=default, metavar=_METAVARS[name],
-                           help=text + suffix)
-    group.add_argument("--census-window", type=_census_window, default=defaults.census_window,
-                       metavar="WxH", help="census window, odd width x odd height, at most 64 bits (default: 9x7)")
-    group.add_argument("--lr-check", type=_lr_check, default=defaults.lr_check, metavar="PX|off",
-                       help="largest left-right disparity difference, px, or 'off' (default: off; 1 for fewer, more "
-                            "reliable pixels)")
-    group.add_argument("--lr-mode", choices=("full", "opencv"), default=defaults.lr_mode,
-                       help="left-right check: full (strict) or opencv (StereoSGBM's collision check) "
-                            "(default: %(default)s)")
-    group.add_argument("--paths", type=int, choices=(4, 8), default=defaults.paths,
-                       help="aggregation directions (default: %(default)s)")
-    group.add_argument("--adaptive-p2", action="store_true", help="divide P2 by the intensity gradient")
-    group.add_argument("--no-subpixel", dest="subpixel", action="store_false", help="integer disparities only")
-    group.add_argument("--fill-holes", action="store_true",
-                       help="fill unknown pixels from the background side (dense map, filled values are guesses)")
+    add_matcher_options(group, defaults=defaults)
+    group.add_argument("--threads", type=int, default=defaults.threads, metavar="N",
+                       help="worker threads for the kernels (default: one per CPU; the kernels use at most 2)")
     group.add_argument("--memory-limit", default=None, metavar="BYTES",
                        help="refuse pairs needing more memory, e.g. 4G (default: $STEREO_CLASSIC_MEMORY_LIMIT or "
                             "half the RAM)")
@@ -105,10 +51,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 def _params_from_args(args: argparse.Namespace) -> Any:
     from stereo_classic.params import SGMParams, parse_bytes
 
-    fields = {name: getattr(args, name) for _, name, _, _ in _PARAM_OPTIONS}
-    fields.update(cost=args.cost, census_window=args.census_window, lr_check=args.lr_check, lr_mode=args.lr_mode,
-                  paths=args.paths,
-                  adaptive_p2=args.adaptive_p2, subpixel=args.subpixel, fill_holes=args.fill_holes)
+    fields = matcher_fields(args)
+    fields["threads"] = args.threads
     try:
         if args.memory_limit is not None:
             fields["memory_limit"] = parse_bytes(args.memory_limit, name="--memory-limit")
@@ -119,11 +63,7 @@ def _params_from_args(args: argparse.Namespace) -> Any:
 
 def _option_names(message: str) -> str:
     """Name the command-line option in a message that names an SGMParams field."""
-    for option, name, _, _ in _PARAM_OPTIONS + (("--census-window", "census_window", None, ""),
-                                                  ("--lr-check", "lr_check", None, ""),
-                                                  ("--cost", "cost", None, "")):
-        message = message.replace(f"`{name}`", f"{option}")
-    return message
+    return option_names(message).replace("`threads`", "--threads")
 
 
 def _outputs(args: argparse.Namespace) -> tuple[Path, Path | None]:

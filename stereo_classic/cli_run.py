@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from stereo_classic._cli_options import add_matcher_options, matcher_fields
 from stereo_classic.cli import UsageError
 
 __all__ = ["add_parser", "func", "SAVE_KINDS"]
@@ -50,20 +51,6 @@ SAVE_KINDS: dict[str, str] = {
     "json": "{name}_objects.json",
 }
 JSONL_NAME = "objects.jsonl"
-
-# (flag, SGMParams field, type, help)
-_MATCHER_OPTIONS: tuple[tuple[str, str, Any, str], ...] = (
-    ("--num-disparities", "num_disparities", int, "disparities searched (default: the scene's range, else 128)"),
-    ("--min-disparity", "min_disparity", int, "smallest disparity searched, px"),
-    ("--block-size", "block_size", int, "odd SAD window side (cost sad)"),
-    ("--cost", "cost", str, "matching cost: census or sad"),
-    ("--p1", "p1", int, "SGM penalty for a 1 px disparity change"),
-    ("--p2", "p2", int, "SGM penalty for larger disparity changes"),
-    ("--uniqueness", "uniqueness", float, "uniqueness ratio in percent (0 = off)"),
-    ("--lr-check", "lr_check", float, "left-right check tolerance in px"),
-    ("--speckle-size", "speckle_size", int, "remove disparity regions smaller than this (0 = off)"),
-)
-
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register the ``run`` sub-command."""
@@ -123,10 +110,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                      help="grow the set over continuous depths (default 0.1, 0 = off)")
     fus.add_argument("--seed", type=int, default=None, help="RANSAC seed (default 0)")
 
-    mat = p.add_argument_group("matcher")
-    for flag, name, kind, text in _MATCHER_OPTIONS:
-        metavar = {"cost": "census|sad", "uniqueness": "PCT", "lr_check": "PX"}.get(name, "N")
-        mat.add_argument(flag, dest=f"matcher_{name}", type=kind, default=None, metavar=metavar, help=text)
+    mat = p.add_argument_group("matcher (the same options as the disparity command; default: SGMParams')")
+    add_matcher_options(mat, dest_prefix="matcher_", help_overrides={
+        "num_disparities": "disparities searched (default: the scene's range, else 128)"})
 
     run = p.add_argument_group("run")
     run.add_argument("--threads", type=int, default=None, metavar="N",
@@ -146,7 +132,7 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
     from stereo_classic.config import RUN_DEFAULTS, ConfigError, load_config, merge_config
 
     flags = {k: getattr(args, k, None) for k in RUN_DEFAULTS}
-    matcher_flags = {name: getattr(args, f"matcher_{name}") for _, name, _, _ in _MATCHER_OPTIONS}
+    matcher_flags = matcher_fields(args, dest_prefix="matcher_")
     try:
         file_cfg = load_config(args.config) if args.config else None
         cfg = merge_config(file_cfg, flags, matcher_flags)

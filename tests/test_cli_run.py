@@ -468,3 +468,31 @@ def test_dataset_run_keeps_the_buffers_of_one_matcher_only(tmp_path, shared_data
     assert main(argv) == 0
     assert len(created) == 3 and holding == [1, 1, 1]
     assert all(loc.matcher._workspace is None for loc in created)  # the run frees the last one too
+
+
+def test_run_takes_every_matcher_option_of_the_disparity_command(tmp_path, pairs, monkeypatch):
+    import argparse
+
+    from stereo_classic import cli_disparity, cli_run, pipeline
+
+    def flags(module):
+        parser = module.add_parser(argparse.ArgumentParser().add_subparsers())
+        return {s for a in parser._actions for s in a.option_strings}
+
+    matcher_flags = flags(cli_disparity) - {"-h", "--help", "-o", "--output", "--png", "--no-png", "--memory-limit"}
+    assert matcher_flags <= flags(cli_run), matcher_flags - flags(cli_run)
+    seen = []
+    real_init = pipeline.Localizer.__init__
+
+    def spy(self, rig, detector=None, params=None, **kw):
+        seen.append(params)
+        real_init(self, rig, detector, params, **kw)
+
+    monkeypatch.setattr(pipeline.Localizer, "__init__", spy)
+    argv = _base(pairs, tmp_path / "o") + [
+        "--census-window", "7x5", "--lr-check", "2", "--lr-mode", "opencv", "--speckle-range", "1.5", "--paths", "4",
+        "--fill-holes", "--adaptive-p2", "--no-subpixel", "--max-frames", "1", "--save", "json"]
+    assert main(argv) == 0
+    p = seen[0]
+    assert (p.census_window, p.lr_check, p.lr_mode, p.speckle_range, p.paths) == ((7, 5), 2.0, "opencv", 1.5, 4)
+    assert (p.fill_holes, p.adaptive_p2, p.subpixel, p.num_disparities) == (True, True, False, 48)
