@@ -154,14 +154,13 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
             raise UsageError(f"--{key} must be between 0 and 1, got {cfg[key]}")
     if cfg["seed"] < 0:
         raise UsageError(f"--seed must be >= 0, got {cfg['seed']}")
-    from stereo_classic.fusion import FusionInputError, localize
-    from stereo_classic.pipeline import _UnitRig
+    from stereo_classic.fusion import FusionInputError, check_options
 
     try:  # check the fusion options before any work
-        localize(np.zeros((0, 4)), np.zeros((1, 1), np.float32), _UnitRig(), method=cfg["method"],
-                 box_shrink=cfg["box_shrink"], depth_range=tuple(cfg["depth_range"]), min_pixels=cfg["min_pixels"],
-                 tolerance_px=cfg["tolerance_px"], near_support=cfg["near_support"],
-                 centre_sigma=cfg["centre_sigma"], grow_density=cfg["grow_density"])
+        check_options(method=cfg["method"], box_shrink=cfg["box_shrink"], depth_range=tuple(cfg["depth_range"]),
+                      min_pixels=cfg["min_pixels"], tolerance_px=cfg["tolerance_px"],
+                      near_support=cfg["near_support"], centre_sigma=cfg["centre_sigma"],
+                      grow_density=cfg["grow_density"])
     except FusionInputError as exc:
         raise UsageError(str(exc)) from None
     return cfg

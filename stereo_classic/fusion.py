@@ -44,6 +44,7 @@ __all__ = [
     "FusionInputError",
     "LocalizedObjects",
     "localize",
+    "check_options",
     "ransac_1d",
     "direction_phrase",
     "sparse_depth_reference",
@@ -454,6 +455,74 @@ def _rig_geometry(rig: Any, shape: tuple[int, int]) -> tuple[float, float, float
     return f, b, doffs, cx, cy
 
 
+def check_options(
+    *,
+    method: str = "ransac",
+    box_shrink: float = 0.2,
+    depth_range: tuple[float, float] = (0.3, 80.0),
+    min_pixels: int = 20,
+    tolerance_px: float = 1.0,
+    near_support: float = 0.5,
+    centre_sigma: float = 0.25,
+    grow_density: float = 0.1,
+    max_clusters: int = 3,
+    max_iterations: int = 256,
+    max_samples: int = 10000,
+) -> dict[str, Any]:
+    """Check :func:`localize`'s options (same names and meaning) without any input.
+
+    Returns
+    -------
+    dict
+        The options, numbers as float and ``depth_range`` as a (near, far) float tuple.
+
+    Raises
+    ------
+    FusionInputError (ValueError)
+        The first bad option; the message names it.
+
+    Examples
+    --------
+    >>> check_options(box_shrink=0.1)["box_shrink"]
+    0.1
+    """
+    if method not in _METHODS:
+        raise FusionInputError(f"`method` must be one of {_METHODS}, got {method!r}")
+    try:
+        box_shrink = float(box_shrink)
+        tolerance_px = float(tolerance_px)
+        near_support = float(near_support)
+        centre_sigma = float(centre_sigma)
+        grow_density = float(grow_density)
+    except (TypeError, ValueError):
+        raise FusionInputError("`box_shrink`, `tolerance_px`, `near_support`, `centre_sigma` and `grow_density` "
+                               "must be numbers") from None
+    if not (0.0 <= box_shrink < 1.0):
+        raise FusionInputError(f"`box_shrink` must be in [0, 1), got {box_shrink!r}")
+    if not (math.isfinite(tolerance_px) and tolerance_px > 0):
+        raise FusionInputError(f"`tolerance_px` must be a positive finite number, got {tolerance_px!r}")
+    if not (0.0 < near_support <= 1.0):
+        raise FusionInputError(f"`near_support` must be in (0, 1], got {near_support!r}")
+    if not (math.isfinite(centre_sigma) and centre_sigma >= 0):
+        raise FusionInputError(f"`centre_sigma` must be >= 0 (0 = uniform weights), got {centre_sigma!r}")
+    if not (math.isfinite(grow_density) and 0 <= grow_density <= 1):
+        raise FusionInputError(f"`grow_density` must be in [0, 1] (0 = no growth), got {grow_density!r}")
+    try:
+        near, far = (float(v) for v in depth_range)
+    except (TypeError, ValueError):
+        raise FusionInputError(
+            f"`depth_range` must be two numbers (near, far) in metres, got {depth_range!r}") from None
+    if not (math.isfinite(near) and math.isfinite(far) and 0.0 <= near < far):
+        raise FusionInputError(f"`depth_range` must satisfy 0 <= near < far (finite metres), got {depth_range!r}")
+    for name, value in (("min_pixels", min_pixels), ("max_clusters", max_clusters), ("max_iterations", max_iterations),
+                        ("max_samples", max_samples)):
+        _check_count(name, value)
+    return dict(method=method, box_shrink=box_shrink, depth_range=(near, far), min_pixels=int(min_pixels),
+                tolerance_px=tolerance_px, near_support=near_support, centre_sigma=centre_sigma,
+                grow_density=grow_density, max_clusters=int(max_clusters), max_iterations=int(max_iterations),
+                max_samples=int(max_samples))
+
+
 def localize(
     detections: Any,
     disparity_map: Any,
@@ -538,37 +607,13 @@ def localize(
     >>> objs.status, round(float(objs.distance_m[0]), 3)
     (('ok',), 5.0)
     """
-    if method not in _METHODS:
-        raise FusionInputError(f"`method` must be one of {_METHODS}, got {method!r}")
-    try:
-        box_shrink = float(box_shrink)
-        tolerance_px = float(tolerance_px)
-        near_support = float(near_support)
-        centre_sigma = float(centre_sigma)
-        grow_density = float(grow_density)
-    except (TypeError, ValueError):
-        raise FusionInputError("`box_shrink`, `tolerance_px`, `near_support`, `centre_sigma` and `grow_density` "
-                               "must be numbers") from None
-    if not (0.0 <= box_shrink < 1.0):
-        raise FusionInputError(f"`box_shrink` must be in [0, 1), got {box_shrink!r}")
-    if not (math.isfinite(tolerance_px) and tolerance_px > 0):
-        raise FusionInputError(f"`tolerance_px` must be a positive finite number, got {tolerance_px!r}")
-    if not (0.0 < near_support <= 1.0):
-        raise FusionInputError(f"`near_support` must be in (0, 1], got {near_support!r}")
-    if not (math.isfinite(centre_sigma) and centre_sigma >= 0):
-        raise FusionInputError(f"`centre_sigma` must be >= 0 (0 = uniform weights), got {centre_sigma!r}")
-    if not (math.isfinite(grow_density) and 0 <= grow_density <= 1):
-        raise FusionInputError(f"`grow_density` must be in [0, 1] (0 = no growth), got {grow_density!r}")
-    try:
-        near, far = (float(v) for v in depth_range)
-    except (TypeError, ValueError):
-        raise FusionInputError(
-            f"`depth_range` must be two numbers (near, far) in metres, got {depth_range!r}") from None
-    if not (math.isfinite(near) and math.isfinite(far) and 0.0 <= near < far):
-        raise FusionInputError(f"`depth_range` must satisfy 0 <= near < far (finite metres), got {depth_range!r}")
-    for name, value in (("min_pixels", min_pixels), ("max_clusters", max_clusters), ("max_iterations", max_iterations),
-                        ("max_samples", max_samples)):
-        _check_count(name, value)
+    opts = check_options(method=method, box_shrink=box_shrink, depth_range=depth_range, min_pixels=min_pixels,
+                         tolerance_px=tolerance_px, near_support=near_support, centre_sigma=centre_sigma,
+                         grow_density=grow_density, max_clusters=max_clusters, max_iterations=max_iterations,
+                         max_samples=max_samples)
+    box_shrink, tolerance_px, near_support = opts["box_shrink"], opts["tolerance_px"], opts["near_support"]
+    centre_sigma, grow_density = opts["centre_sigma"], opts["grow_density"]
+    near, far = opts["depth_range"]
     gen = _check_rng(rng)
 
     disp_src = getattr(disparity_map, "disparity", disparity_map)

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from stereo_classic.fusion import LocalizedObjects, localize
+from stereo_classic.fusion import LocalizedObjects, check_options, localize
 
 __all__ = ["Localizer", "PipelineResult", "format_timings", "STAGES"]
 
@@ -126,7 +126,7 @@ class Localizer:
                                    centre_sigma=centre_sigma, grow_density=grow_density)
         self.seed = int(seed)
         # Check the fusion options now rather than on the first frame.
-        localize(np.zeros((0, 4)), np.zeros((1, 1), np.float32), _UnitRig(), rng=self.seed, **self.fusion_options)
+        check_options(**self.fusion_options)
         self.concurrent = bool(concurrent) and detector is not None
         self._pool: ThreadPoolExecutor | None = None
         self._first = True
@@ -215,10 +215,6 @@ class Localizer:
                    "localize": (t3 - t2) * 1e3, "total": (t3 - t0) * 1e3}
         return PipelineResult(left=left, right=right, disparity=dmap, detections=detections, objects=objects,
                               timings_ms=timings)
-
-
-class _UnitRig:
-    focal_px, baseline_m, doffs, cx_left, cy, image_size = 1.0, 1.0, 0.0, 0.0, 0.0, (1, 1)
 
 
 def format_timings(timings: Iterable[Mapping[str, float]], *, stages: Iterable[str] | None = None) -> str:

@@ -14,6 +14,7 @@ from stereo_classic.fusion import (
     STATUSES,
     FusionInputError,
     LocalizedObjects,
+    check_options,
     direction_phrase,
     localize,
     ransac_1d,
@@ -275,6 +276,30 @@ def test_ransac_1d_edge_cases():
         ransac_1d(np.ones(3), -1.0)
     with pytest.raises(FusionInputError, match="finite"):
         ransac_1d(np.array([1.0, np.inf]), 1.0)
+
+
+def test_check_options_normalises_and_names_the_bad_option(monkeypatch):
+    opts = check_options(box_shrink=0, depth_range=[1, 20], tolerance_px=np.float32(0.5), max_iterations=np.int64(8))
+    assert opts["box_shrink"] == 0.0 and isinstance(opts["box_shrink"], float)
+    assert opts["depth_range"] == (1.0, 20.0) and opts["tolerance_px"] == 0.5 and opts["max_iterations"] == 8
+    assert opts == {**check_options(), "box_shrink": 0.0, "depth_range": (1.0, 20.0), "tolerance_px": 0.5,
+                    "max_iterations": 8}
+    for kwargs, needle in [({"method": "mean"}, "`method`"), ({"box_shrink": 1.0}, "`box_shrink`"),
+                           ({"depth_range": (5, 1)}, "`depth_range`"), ({"min_pixels": 0}, "`min_pixels`"),
+                           ({"tolerance_px": 0}, "`tolerance_px`"), ({"near_support": 0}, "`near_support`"),
+                           ({"centre_sigma": -1}, "`centre_sigma`"), ({"grow_density": 2}, "`grow_density`"),
+                           ({"max_clusters": 0}, "`max_clusters`"), ({"max_samples": 1.5}, "`max_samples`")]:
+        with pytest.raises(FusionInputError, match=needle):
+            check_options(**kwargs)
+        with pytest.raises(FusionInputError, match=needle):  # localize checks through the same function
+            localize(np.zeros((0, 4)), np.zeros((2, 2), np.float32), make_rig(2, 2), **kwargs)
+    # the pipeline and the CLI check their fusion options with it, not with a dummy localize call
+    from stereo_classic import pipeline
+
+    calls = []
+    monkeypatch.setattr(pipeline, "check_options", lambda **kw: calls.append(kw) or {})
+    pipeline.Localizer(make_rig(8, 8), None, {"num_disparities": 16}, box_shrink=0.3)
+    assert len(calls) == 1 and calls[0]["box_shrink"] == 0.3
 
 
 @pytest.mark.parametrize("kwargs, needle", [
