@@ -197,13 +197,6 @@ def _check_pair(left: Any, right: Any, params: SGMParams) -> tuple[np.ndarray, n
     return left_arr, right_arr
 
 
-def _check_penalties(params: SGMParams) -> None:
-    """The kernels' own limit on P1/P2 (int16 sums), checked before anything is allocated."""
-    check = getattr(_core(), "check_penalties", None)
-    if check is not None:
-        check(params.cost, params.block_size, params.census_window, params.effective_p1, params.effective_p2)
-
-
 def _check_finite(name: str, arr: np.ndarray) -> None:
     if arr.dtype.kind != "f":
         return
@@ -408,7 +401,6 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     on every call, with ``reserved`` added (``memory_checked`` does not apply)."""
     t0 = time.perf_counter()
     left_arr, right_arr = _check_pair(left, right, params)
-    _check_penalties(params)
     key = (left_arr.shape, left_arr.dtype)
     if reserved > 0:
         _check_memory(left_arr.shape, left_arr.dtype, params, reserved)

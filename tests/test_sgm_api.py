@@ -478,6 +478,27 @@ class TestErrors:
         with pytest.raises(ValueError, match=f"`{field}`"):
             compute_disparity(*pair, **kwargs)
 
+    def test_penalty_limit_is_checked_once_when_the_params_are_built(self, pair, monkeypatch):
+        import sys
+
+        from stereo_classic import _sgm_core
+
+        params = SGMParams(num_disparities=16)  # frozen and checked here, P1/P2 limit included
+        callers = []
+        real = _sgm_core.check_penalties
+
+        def spy(*args):
+            callers.append(sys._getframe(1).f_globals["__name__"])
+            return real(*args)
+
+        monkeypatch.setattr(_sgm_core, "check_penalties", spy)
+        compute_disparity(*pair, params)
+        StereoMatcher(params).compute(*pair)
+        # the kernels' entry point checks its own arguments; the matcher does not repeat the params' check
+        assert "stereo_classic.matcher" not in callers and "stereo_classic.params" not in callers
+        compute_disparity(*pair, params, p2=100)  # a changed field builds (and checks) new params
+        assert callers.count("stereo_classic.params") == 1
+
     @pytest.mark.parametrize("kwargs",
                              [dict(p1=10, p2=30000), dict(p1=10, p2=1400), dict(census_window=(3, 3), p2=1500)])
     def test_penalty_beyond_int16_sums(self, pair, kwargs):
