@@ -496,3 +496,55 @@ def test_run_takes_every_matcher_option_of_the_disparity_command(tmp_path, pairs
     p = seen[0]
     assert (p.census_window, p.lr_check, p.lr_mode, p.speckle_range, p.paths) == ((7, 5), 2.0, "opencv", 1.5, 4)
     assert (p.fill_holes, p.adaptive_p2, p.subpixel, p.num_disparities) == (True, True, False, 48)
+
+
+def _fixed_box_yolox(path: Path, size=(240, 160), box=(80, 50, 160, 110), label=2) -> Path:
+    """A tiny YOLOX-layout ONNX model (built with onnx.helper) whose output is a constant: one box.
+
+    Input (1, 3, H, W) = the image size, so the letterbox is the identity and ``box`` (x0, y0, x1, y1,
+    image pixels) comes back as it is, class ``label`` (2 = car), score 0.9.
+    """
+    import math
+
+    import onnx
+    from onnx import TensorProto, helper, numpy_helper
+
+    w, h = size
+    strides = (8, 16, 32)
+    cells = [math.ceil(h / s) * math.ceil(w / s) for s in strides]
+    raw = np.zeros((1, sum(cells), 85), np.float32)
+    s = 32
+    cx, cy, bw, bh = (box[0] + box[2]) / 2, (box[1] + box[3]) / 2, box[2] - box[0], box[3] - box[1]
+    gx, gy = int(cx // s), int(cy // s)
+    row = cells[0] + cells[1] + gy * math.ceil(w / s) + gx
+    raw[0, row, :5] = (cx / s - gx, cy / s - gy, math.log(bw / s), math.log(bh / s), 0.9)
+    raw[0, row, 5 + label] = 1.0
+    node = helper.make_node("Constant", [], ["output"], value=numpy_helper.from_array(raw, "output_value"))
+    graph = helper.make_graph([node], "fixed_box", [helper.make_tensor_value_info("images", TensorProto.FLOAT,
+                                                                                  [1, 3, h, w])],
+                              [helper.make_tensor_value_info("output", TensorProto.FLOAT, list(raw.shape))])
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 13)])
+    model.ir_version = 8
+    onnx.checker.check_model(model)
+    path.write_bytes(model.SerializeToString())
+    return path
+
+
+def test_objects_json_is_byte_identical_across_runs_and_thread_counts_with_objects(tmp_path, pairs):
+    """RANSAC draws its hypotheses (a box of 64 x 48 known pixels > 256 iterations): seeded, so the same."""
+    model = _fixed_box_yolox(tmp_path / "fixed_box.onnx")
+    outs = []
+    for i, threads in enumerate(("1", "2", "2")):
+        out = tmp_path / f"o{i}"
+        argv = _base(pairs, out)
+        argv[argv.index("--model") + 1] = str(model)
+        assert main(argv + ["--threads", threads, "--seed", "5", "--save", "json"]) == 0
+        outs.append((out / "objects.jsonl").read_bytes())
+    assert outs[0] == outs[1] == outs[2]
+    records = [json.loads(line) for line in outs[0].decode().splitlines()]
+    assert [r["frame"] for r in records] == ["f0_L", "f1_L", "f2_L"]
+    for r, z_box in zip(records, (2.5, 3.0, 3.5)):
+        assert r["detector"] == "fixed_box" and len(r["objects"]) == 1
+        car = r["objects"][0]
+        assert car["label"] == "car" and car["status"] == "ok"
+        assert car["distance_m"] == pytest.approx(z_box, rel=0.05)
