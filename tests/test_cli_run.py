@@ -531,16 +531,24 @@ def _fixed_box_yolox(path: Path, size=(240, 160), box=(80, 50, 160, 110), label=
 
 
 def test_objects_json_is_byte_identical_across_runs_and_thread_counts_with_objects(tmp_path, pairs):
-    """RANSAC draws its hypotheses (a box of 64 x 48 known pixels > 256 iterations): seeded, so the same."""
+    """RANSAC draws its hypotheses (a box of 64 x 48 known pixels > 256 iterations): seeded, so the same.
+
+    A narrow band (0.1 px, no growth) makes the result depend on which hypotheses are drawn, so that a
+    seed not passed through, or a thread-dependent draw, would show (checked: another seed differs).
+    """
     model = _fixed_box_yolox(tmp_path / "fixed_box.onnx")
-    outs = []
-    for i, threads in enumerate(("1", "2", "2")):
-        out = tmp_path / f"o{i}"
+
+    def run(name, threads, seed):
+        out = tmp_path / name
         argv = _base(pairs, out)
         argv[argv.index("--model") + 1] = str(model)
-        assert main(argv + ["--threads", threads, "--seed", "5", "--save", "json"]) == 0
-        outs.append((out / "objects.jsonl").read_bytes())
+        assert main(argv + ["--threads", threads, "--seed", seed, "--save", "json", "--tolerance-px", "0.1",
+                            "--grow-density", "0"]) == 0
+        return (out / "objects.jsonl").read_bytes()
+
+    outs = [run(f"o{i}", threads, "5") for i, threads in enumerate(("1", "2", "2"))]
     assert outs[0] == outs[1] == outs[2]
+    assert run("other_seed", "1", "6") != outs[0]
     records = [json.loads(line) for line in outs[0].decode().splitlines()]
     assert [r["frame"] for r in records] == ["f0_L", "f1_L", "f2_L"]
     for r, z_box in zip(records, (2.5, 3.0, 3.5)):
