@@ -84,8 +84,7 @@ class DisparityMap:
     validity : dict[str, int | None]
         Pixel counts: "pixels" (H * W), "valid" (finite in ``disparity``), "unknown_matcher" (NaN
         out of the matcher) = "no_candidate" (columns where no disparity of the range lands inside
-        the right image) + "failed_lr" + "failed_uniqueness" (counted by the kernels; None only if
-        both filters are on and the kernels give no counts), "speckle_removed",
+        the right image) + "failed_lr" + "failed_uniqueness" (exact counts from the kernels), "speckle_removed",
         "filled" (by ``fill_holes``), "border" (pixels in the image bands where the full disparity
         range does not fit, matched with the range that does) and "border_valid".
     """
@@ -419,8 +418,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.adaptive_p2,
         uniqueness=params.uniqueness / 100.0, lr_check=params.lr_check, subpixel=params.subpixel,
         threads=params.threads if params.threads is not None else (os.cpu_count() or 1),
-        lr_mode=params.lr_mode, return_right=params.right_view,
-        **({} if workspace is None else {"workspace": workspace}))
+        lr_mode=params.lr_mode, return_right=params.right_view, workspace=workspace)
     t2 = time.perf_counter()
 
     disparity = np.asarray(disparity, dtype=np.float32)
@@ -436,15 +434,9 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     border = _border_mask(disparity.shape, params)
     t3 = time.perf_counter()
 
-    counts = {k: v for k, v in dict(core_timings).items() if k.startswith("n_")}
-    # The kernels mark NaN: pixels with no candidate at all, and those failing uniqueness or the LR check.
-    # With at most one of the two filters on, the split is exact.
+    # The kernels mark NaN: pixels with no candidate at all, and those failing uniqueness or the LR check
+    # (which they count exactly).
     no_candidate = int(_no_candidate_columns(disparity.shape, params).sum()) * disparity.shape[0]
-    rejected = unknown_matcher - no_candidate
-    uniqueness_on, lr_on = params.uniqueness > 0, params.lr_check is not None
-    failed_lr = counts.get("n_failed_lr", 0 if not lr_on else (rejected if not uniqueness_on else None))
-    failed_uniqueness = counts.get("n_failed_uniqueness",
-                                   0 if not uniqueness_on else (rejected if not lr_on else None))
     timings = {"prepare": (t1 - t0) * 1e3}
     timings.update({k: float(v) for k, v in dict(core_timings).items() if not k.startswith("n_")})
     timings["postprocess"] = (t3 - t2) * 1e3
@@ -454,8 +446,8 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         "valid": valid_after_speckle + filled,
         "unknown_matcher": unknown_matcher,
         "no_candidate": no_candidate,
-        "failed_lr": None if failed_lr is None else int(failed_lr),
-        "failed_uniqueness": None if failed_uniqueness is None else int(failed_uniqueness),
+        "failed_lr": int(core_timings["n_failed_lr"]),
+        "failed_uniqueness": int(core_timings["n_failed_uniqueness"]),
         "speckle_removed": valid_before - valid_after_speckle,
         "filled": filled,
         "border": int(border.sum()) * disparity.shape[0],
@@ -533,9 +525,8 @@ class StereoMatcher:
         try:
             self._busy_bytes = self._estimate(left)
             if self._workspace is None:
-                workspace_cls = getattr(_core(), "Workspace", None)
-                self._workspace = workspace_cls() if workspace_cls is not None else False
-            return _match(left, right, self._params, self._memory_checked, self._workspace or None)
+                self._workspace = _core().Workspace()
+            return _match(left, right, self._params, self._memory_checked, self._workspace)
         finally:
             self._busy_bytes = 0
             self._lock.release()

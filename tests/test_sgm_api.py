@@ -246,13 +246,10 @@ class TestComputeDisparity:
             assert v["failed_lr"] == 0
         if uniqueness == 0:
             assert v["failed_uniqueness"] == 0
-        if v["failed_lr"] is None or v["failed_uniqueness"] is None:
-            # both filters on and the kernels do not count them: the split is unknown, not guessed
-            assert lr_check is not None and uniqueness and v["failed_lr"] is v["failed_uniqueness"] is None
-        else:
-            assert v["no_candidate"] + v["failed_lr"] + v["failed_uniqueness"] == v["unknown_matcher"]
-            assert (v["failed_lr"] > 0) == (lr_check is not None)
-            assert (v["failed_uniqueness"] > 0) == (uniqueness > 0)
+        # the kernels count both filters exactly, also when both are on
+        assert v["no_candidate"] + v["failed_lr"] + v["failed_uniqueness"] == v["unknown_matcher"]
+        assert (v["failed_lr"] > 0) == (lr_check is not None)
+        assert (v["failed_uniqueness"] > 0) == (uniqueness > 0)
 
     def test_stereo_matcher_reuses_kernel_buffers(self):
         left, right = _shift_pair(seed=4)
