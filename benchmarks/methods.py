@@ -4,15 +4,11 @@ Every method is run on the same input pair with the same disparity range (``min_
 ``num_disparities``) and block size, except where a method's definition fixes them (the KITTI 2015
 "OCV-SGBM" settings use block 3). Each returns a float32 (H, W) disparity in pixels with NaN where
 unknown, so the metrics count every method's invalid border the same way.
-
-A method whose module is missing is still listed, with ``available=False`` and the reason; it is
-reported as "not available", never replaced by something else.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import importlib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -204,71 +200,34 @@ _MATCHER_VARIANTS: tuple[tuple[str, dict[str, Any], str], ...] = (
 )
 
 
-def _matcher_factory(module: Any, overrides: dict[str, Any]) -> Callable[[Setup], Runner]:
-    params_cls = module.SGMParams
-    fields = {f.name for f in dataclasses.fields(params_cls)}
+def _matcher_factory(overrides: dict[str, Any]) -> Callable[[Setup], Runner]:
+    import stereo_classic as sc
 
     def factory(setup: Setup) -> Runner:
-        kwargs = dict(overrides)
-        kwargs.update(num_disparities=setup.num_disparities, min_disparity=setup.min_disparity)
-        if "block_size" in fields:
-            kwargs["block_size"] = setup.block_size
-        if "threads" in fields:
-            kwargs["threads"] = setup.threads
-        params = params_cls(**kwargs)
-        matcher = module.StereoMatcher(params) if getattr(module, "StereoMatcher", None) is not None else None
+        params = sc.SGMParams(**overrides, num_disparities=setup.num_disparities,
+                              min_disparity=setup.min_disparity, block_size=setup.block_size,
+                              threads=setup.threads)
+        matcher = sc.StereoMatcher(params)
 
         def run(left: np.ndarray, right: np.ndarray) -> np.ndarray:
-            if "threads" not in fields:
-                import numba
-
-                numba.set_num_threads(min(setup.threads, numba.config.NUMBA_NUM_THREADS))
-            dmap = matcher.compute(left, right) if matcher is not None else module.compute_disparity(left, right, params)
-            return np.asarray(dmap.disparity, dtype=np.float32)
+            return matcher.compute(left, right).disparity
 
         return run
 
     return factory
 
 
-def _matcher_module() -> Any:
-    """``stereo_classic`` when it exports the matcher, else its ``matcher`` and ``params`` modules."""
-    module = importlib.import_module("stereo_classic")
-    if all(hasattr(module, n) for n in ("SGMParams", "compute_disparity", "StereoMatcher")):
-        return module
-    try:
-        matcher = importlib.import_module("stereo_classic.matcher")
-        params = importlib.import_module("stereo_classic.params")
-    except ImportError as exc:
-        raise ImportError(f"stereo_classic has no SGMParams/compute_disparity yet ({exc})") from None
-    import types
-
-    return types.SimpleNamespace(SGMParams=params.SGMParams, compute_disparity=matcher.compute_disparity,
-                                 StereoMatcher=getattr(matcher, "StereoMatcher", None))
-
-
 def stereo_classic_methods() -> list[Method]:
-    """This project's matcher: default, SAD and census costs, 8 and 4 paths (or "not available")."""
-    try:
-        module = _matcher_module()
-        fields = {f.name for f in dataclasses.fields(module.SGMParams)}
-    except Exception as exc:  # noqa: BLE001 - any failure to import means "not available", reported with its reason
-        reason = f"{type(exc).__name__}: {exc}"
-        return [Method(name, "stereo_classic", desc, None, available=False, reason=reason, params=ov) for name, ov, desc in _MATCHER_VARIANTS]
+    """This project's matcher: default, SAD and census costs, 8 and 4 paths."""
+    import stereo_classic as sc
+
     out = []
     for name, overrides, desc in _MATCHER_VARIANTS:
-        unknown = [k for k in overrides if k not in fields]
-        if unknown:
-            out.append(Method(name, "stereo_classic", desc, None, available=False, reason=f"SGMParams has no field {unknown}", params=overrides))
-            continue
-        try:
-            defaults = module.SGMParams(**overrides)
-            shown = {f: getattr(defaults, f) for f in sorted(fields) if f not in ("num_disparities", "min_disparity")}
-        except Exception:  # noqa: BLE001 - defaults that need the problem's range: show the overrides only
-            shown = {}
-        shown.update(overrides)
+        defaults = sc.SGMParams(**overrides)
+        shown = {f.name: getattr(defaults, f.name) for f in sorted(dataclasses.fields(defaults), key=lambda f: f.name)
+                 if f.name not in ("num_disparities", "min_disparity")}
         shown = {k: (v if isinstance(v, (int, float, str, bool, type(None))) else repr(v)) for k, v in shown.items()}
-        out.append(Method(name, "stereo_classic", desc, _matcher_factory(module, overrides), params=shown))
+        out.append(Method(name, "stereo_classic", desc, _matcher_factory(overrides), params=shown))
     return out
 
 
