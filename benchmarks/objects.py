@@ -13,7 +13,6 @@ Distance references
 
 from __future__ import annotations
 
-import importlib
 import statistics
 import time
 from collections.abc import Mapping, Sequence
@@ -47,51 +46,24 @@ def _median_stats(times: Sequence[float]) -> dict[str, Any]:
 
 
 def detector_latency(models: Sequence[Path], image: np.ndarray, *, threads: Sequence[int] = (1, 2), repeat: int = 5) -> dict[str, Any]:
-    """Latency of ``OnnxDetector.detect`` per model and thread count.
+    """Latency of ``OnnxDetector.detect`` per model and thread count, via ``detectors.bench.measure_latency``
+    (median per stage: preprocess, inference, postprocess, total; thread counts interleaved; warm-up excluded)."""
+    from detectors.bench import measure_latency
 
-    Uses ``detectors.bench.measure_latency`` (median per stage: preprocess, inference, postprocess,
-    total; thread counts interleaved; warm-up excluded) when it exists, else times ``detect`` here.
-    """
-    try:
-        bench = importlib.import_module("detectors.bench")
-        measure = bench.measure_latency
-    except Exception:  # noqa: BLE001 - fall back to timing detect() here
-        measure = None
-    if measure is None:
-        try:
-            detectors = importlib.import_module("detectors")
-            OnnxDetector = getattr(detectors, "OnnxDetector", None) or importlib.import_module("detectors.onnx_detector").OnnxDetector
-        except Exception as exc:  # noqa: BLE001
-            return _unavailable(exc)
     if not models:
         return _unavailable("no detector model found (give --models DIR or set STEREO_CLASSIC_MODELS)")
     rows: list[dict[str, Any]] = []
     for path in models:
-        if measure is not None:
-            try:
-                for r in measure(str(path), [image], threads=tuple(int(t) for t in threads), repeats=max(3, repeat), warmup=1):
-                    r = dict(r)
-                    r["model"] = path.name
-                    r["input_size"] = list(r["input_size"]) if isinstance(r.get("input_size"), (tuple, list)) else r.get("input_size")
-                    r["median_ms"] = r.get("total_ms")
-                    rows.append(r)
-            except Exception as exc:  # noqa: BLE001 - a model the detectors package cannot run is reported, not fatal
-                rows.append({"model": path.name, "threads": None, "error": f"{type(exc).__name__}: {exc}"})
-            continue
-        for t in threads:
-            try:
-                det = OnnxDetector(str(path), threads=int(t))
-                det.detect(image)
-                times = []
-                for _ in range(max(3, repeat)):
-                    t0 = time.perf_counter()
-                    det.detect(image)
-                    times.append((time.perf_counter() - t0) * 1000.0)
-                rows.append({"model": path.name, "threads": int(t), "total_ms": statistics.median(times), **_median_stats(times)})
-            except Exception as exc:  # noqa: BLE001
-                rows.append({"model": path.name, "threads": int(t), "error": f"{type(exc).__name__}: {exc}"})
-    how = ("detectors.bench.measure_latency: OnnxDetector.detect, median per stage, thread counts interleaved, warm-up excluded"
-           if measure is not None else "OnnxDetector.detect timed here (letterbox, inference, decoding, NMS), first call excluded")
+        try:
+            for r in measure_latency(str(path), [image], threads=tuple(int(t) for t in threads), repeats=max(3, repeat), warmup=1):
+                r = dict(r)
+                r["model"] = path.name
+                r["input_size"] = list(r["input_size"]) if isinstance(r.get("input_size"), (tuple, list)) else r.get("input_size")
+                r["median_ms"] = r.get("total_ms")
+                rows.append(r)
+        except Exception as exc:  # noqa: BLE001 - a model the detectors package cannot run is reported, not fatal
+            rows.append({"model": path.name, "threads": None, "error": f"{type(exc).__name__}: {exc}"})
+    how = "detectors.bench.measure_latency: OnnxDetector.detect, median per stage, thread counts interleaved, warm-up excluded"
     return {"available": True, "image_size": [int(image.shape[1]), int(image.shape[0])], "rows": rows, "how": how}
 
 
@@ -100,11 +72,10 @@ def pipeline_fps(scene: Any, model: Path | None, *, num_disparities: int, thread
     if scene.rig is None:
         return _unavailable(f"scene {scene.name} has no calibration")
     try:
-        pipeline = importlib.import_module("stereo_classic.pipeline")
+        from stereo_classic import pipeline
         detector: Any = None
         if model is not None:
-            detectors = importlib.import_module("detectors")
-            OnnxDetector = getattr(detectors, "OnnxDetector", None) or importlib.import_module("detectors.onnx_detector").OnnxDetector
+            from detectors import OnnxDetector
             detector = OnnxDetector(str(model), threads=threads)
         loc = pipeline.Localizer(scene.rig, detector, {"num_disparities": num_disparities, "threads": threads})
         t0 = time.perf_counter()
@@ -136,13 +107,6 @@ def pipeline_fps(scene: Any, model: Path | None, *, num_disparities: int, thread
     }
 
 
-def _localize_fn() -> Any:
-    module = importlib.import_module("stereo_classic")
-    if hasattr(module, "localize"):
-        return module.localize
-    return importlib.import_module("stereo_classic.fusion").localize
-
-
 def distance_errors(scene: Any, model: Path | None, outputs: Mapping[str, np.ndarray], *, box_shrink: float = 0.2, classes: Sequence[str] = ()) -> dict[str, Any]:
     """Distance of each detected object from each method's disparity, against the scene's reference.
 
@@ -155,9 +119,8 @@ def distance_errors(scene: Any, model: Path | None, outputs: Mapping[str, np.nda
     if model is None:
         return _unavailable("no detector model found (give --models DIR or set STEREO_CLASSIC_MODELS)")
     try:
-        localize = _localize_fn()
-        detectors = importlib.import_module("detectors")
-        OnnxDetector = getattr(detectors, "OnnxDetector", None) or importlib.import_module("detectors.onnx_detector").OnnxDetector
+        from stereo_classic.fusion import localize
+        from detectors import OnnxDetector
         dets = OnnxDetector(str(model)).detect(scene.left)
         if classes:
             dets = dets.only(*classes)
@@ -166,10 +129,8 @@ def distance_errors(scene: Any, model: Path | None, outputs: Mapping[str, np.nda
     labels = list(getattr(dets, "labels", []))
     boxes = np.asarray(dets.xyxy, dtype=np.float64)
     if scene.gt_depth is not None:
-        try:
-            reference = importlib.import_module("stereo_classic.fusion").sparse_depth_reference
-        except Exception as exc:  # noqa: BLE001
-            return _unavailable(exc)
+        from stereo_classic.fusion import sparse_depth_reference as reference
+
         how = "LiDAR: stereo_classic.fusion.sparse_depth_reference (median of the nearest dense cluster of LiDAR depths in the shrunk box)"
         ref_arr = reference(np.nan_to_num(scene.gt_depth, nan=0.0), boxes, box_shrink=box_shrink)
         refs = [float(v) if np.isfinite(v) else None for v in ref_arr]

@@ -7,7 +7,6 @@ directly so that a fresh machine can still run the command.
 
 from __future__ import annotations
 
-import importlib
 import logging
 import math
 import os
@@ -115,31 +114,11 @@ def default_data_dir() -> Path | None:
     return path if path.is_dir() else None
 
 
-def _datasets_module() -> Any | None:
-    try:
-        return importlib.import_module("stereo_classic.datasets")
-    except ImportError as exc:
-        log.warning("stereo_classic.datasets not available (%s): only the built-in demo scene can be used", exc)
-        return None
-
-
 def demo_scene() -> BenchScene:
-    """The built-in demo scene (Middlebury Motorcycle from scikit-image), via the datasets module when present."""
-    datasets = _datasets_module()
-    if datasets is not None and hasattr(datasets, "demo_scene"):
-        return BenchScene.from_scene(datasets.demo_scene(), source="built-in demo (skimage.data.stereo_motorcycle)")
-    from skimage import data as skdata
+    """The built-in demo scene (Middlebury Motorcycle from scikit-image, with its rig)."""
+    from stereo_classic import datasets
 
-    left, right, disp = skdata.stereo_motorcycle()
-    gt = np.asarray(disp, dtype=np.float32).copy()
-    gt[~np.isfinite(gt)] = np.nan  # documented NaN, holds inf
-    return BenchScene(
-        name="demo-motorcycle",
-        left=np.ascontiguousarray(left[:, :, ::-1]),
-        right=np.ascontiguousarray(right[:, :, ::-1]),
-        gt_disparity=gt,
-        source="built-in demo (skimage.data.stereo_motorcycle, read directly)",
-    )
+    return BenchScene.from_scene(datasets.demo_scene(), source="built-in demo (skimage.data.stereo_motorcycle)")
 
 
 def _matches(name: str, wanted: Sequence[str]) -> bool:
@@ -172,19 +151,16 @@ def load_scenes(data_dir: Path | None, names: Sequence[str] | None = None, *, in
         data_dir = Path(data_dir)
         if not data_dir.is_dir():
             raise FileNotFoundError(f"`--data` must be a folder of stereo scenes, got {str(data_dir)!r} which does not exist")
-        datasets = _datasets_module()
-        if datasets is None or not hasattr(datasets, "iter_scenes"):
-            log.warning("stereo_classic.datasets.iter_scenes not available: using the built-in demo scene instead of %s", data_dir)
-            scenes = [demo_scene()]
-        else:
-            scenes = []
-            for scene in datasets.iter_scenes(data_dir):
-                bench = BenchScene.from_scene(scene, source=str(getattr(scene, "path", "") or data_dir))
-                if names and not _matches(bench.name, names):
-                    continue
-                if not names and not include_no_gt and bench.gt_disparity is None and bench.gt_depth is None:
-                    continue
-                scenes.append(bench)
+        from stereo_classic import datasets
+
+        scenes = []
+        for scene in datasets.iter_scenes(data_dir):
+            bench = BenchScene.from_scene(scene, source=str(getattr(scene, "path", "") or data_dir))
+            if names and not _matches(bench.name, names):
+                continue
+            if not names and not include_no_gt and bench.gt_disparity is None and bench.gt_depth is None:
+                continue
+            scenes.append(bench)
     if names:
         scenes = [s for s in scenes if _matches(s.name, names)]
         if not scenes:
