@@ -11,7 +11,6 @@ import base64
 import html
 import json
 import math
-import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -92,22 +91,10 @@ def jsonable(value: Any) -> Any:
 
 
 def _atomic_bytes(path: Path, data: bytes) -> None:
-    try:
-        from stereo_classic.io import atomic_write  # the project's helper, when present
-    except ImportError:
-        atomic_write = None
-    path = Path(path)
-    if atomic_write is not None:
-        with atomic_write(path, mode="wb") as fh:
-            fh.write(data)
-        return
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_bytes(data)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    from stereo_classic.io import atomic_write
+
+    with atomic_write(Path(path), mode="wb") as fh:
+        fh.write(data)
 
 
 def write_text_atomic(path: Path, text: str) -> None:
