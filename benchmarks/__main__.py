@@ -128,21 +128,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    try:
+    def run() -> int:
         from benchmarks.render import write_report
 
         report, arrays = run_benchmark(config, argv=argv)
         written = write_report(report, arrays, config.out_dir, figures=config.figures)
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return 130
-    except (ValueError, OSError, RuntimeError, MemoryError) as exc:
-        if args.verbose:
-            log.exception("failed")
-        print(f"error: {exc}", file=sys.stderr)
-        return 1
-    log.info("wrote %s", ", ".join(str(p) for p in written))
-    return 0
+        log.info("wrote %s", ", ".join(str(p) for p in written))
+        return 0
+
+    from stereo_classic.cli import run_guarded
+
+    return run_guarded(run, verbose=bool(args.verbose))
 
 
 if __name__ == "__main__":

@@ -11,9 +11,9 @@ import argparse
 import importlib
 import logging
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
-__all__ = ["main", "console_main", "UsageError", "build_parser"]
+__all__ = ["main", "console_main", "UsageError", "build_parser", "run_guarded"]
 
 log = logging.getLogger("stereo_classic")
 
@@ -68,10 +68,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help(sys.stderr)
         return 2
+    return run_guarded(lambda: args.func(args), verbose=bool(args.verbose))
+
+
+def run_guarded(func: Callable[[], int], *, verbose: bool = False) -> int:
+    """Call ``func`` and turn the documented errors into exit codes with a one-line message on stderr.
+
+    ``UsageError`` -> 2, ``KeyboardInterrupt`` -> 130, ``ValueError`` / ``OSError`` / ``RuntimeError`` /
+    ``MemoryError`` -> 1; ``verbose`` adds the traceback to the log.
+    """
     try:
-        return int(args.func(args))
+        return int(func())
     except UsageError as exc:
-        if args.verbose:
+        if verbose:
             log.exception("usage error")
         print(f"error: {exc}", file=sys.stderr)
         return 2
@@ -79,7 +88,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("interrupted", file=sys.stderr)
         return 130
     except (ValueError, OSError, RuntimeError, MemoryError) as exc:
-        if args.verbose:
+        if verbose:
             log.exception("failed")
         print(f"error: {exc}", file=sys.stderr)
         return 1
