@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from stereo_classic.cli import main
-from test_fusion_scenes import planted_scene  # tests/ is on sys.path under pytest
+from tests.helpers.scenes import planted_scene
 
 EVERY_KIND = ("boxes.png", "disparity.png", "depth.png", "disparity.pfm", "disparity_kitti.png", "points.ply",
               "objects.json")
@@ -420,7 +420,7 @@ def test_a_failing_write_leaves_no_part_of_that_frame(tmp_path, pairs, monkeypat
 def test_disparities_beyond_the_kitti_png_range_are_stored_as_unknown_there(tmp_path, capsys):
     """A near object at ~300 px: the PFM keeps it, the KITTI PNG marks it unknown and the run says so."""
     from stereo_classic import io
-    from test_fusion_scenes import disparity_of, make_rig
+    from tests.helpers.scenes import disparity_of, make_rig
 
     size = (480, 120)
     rig = make_rig(*size)

@@ -20,7 +20,7 @@ from stereo_classic.fusion import (
     ransac_1d,
     sparse_depth_reference,
 )
-from test_fusion_scenes import disparity_of, make_rig, planted_scene  # tests/ is on sys.path under pytest
+from tests.helpers.scenes import disparity_of, make_rig, planted_scene
 
 
 def _noisy(gt, rng, sigma=0.25, outliers=0.05, holes=0.05):

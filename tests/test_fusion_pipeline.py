@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from stereo_classic.pipeline import STAGES, Localizer, format_timings
-from test_fusion_scenes import planted_scene  # tests/ is on sys.path under pytest
+from tests.helpers.scenes import planted_scene
 
 
 def _rig(width=240, height=160):

@@ -13,7 +13,7 @@ import pytest
 
 from stereo_classic.fusion import localize, sparse_depth_reference
 from stereo_classic.pipeline import Localizer
-from test_fusion_scenes import planted_scene  # tests/ is on sys.path under pytest
+from tests.helpers.scenes import planted_scene
 
 
 @pytest.fixture(scope="module")

@@ -16,7 +16,7 @@ from benchmarks.render import summary_markdown
 from benchmarks.scenes import BenchScene, disparity_range, parse_size, speed_inputs
 from benchmarks.timing import mde_per_s, time_interleaved
 
-from test_benchmarks_stereo_onnx import build_sad_wta  # noqa: E402  (tests/ is on sys.path under pytest)
+from tests.helpers.onnx_stereo import build_sad_wta  # noqa: E402
 
 FILES = ("report.json", "report.md", "report.html")
 HAVE_MPL = importlib.util.find_spec("matplotlib") is not None  # the `bench` extra; CI may not have it
