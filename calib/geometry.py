@@ -16,6 +16,7 @@ __all__ = [
     "depth_from_disparity",
     "disparity_from_depth",
     "points_from_disparity",
+    "points_from_pixels",
     "check_positive",
     "check_finite",
 ]
@@ -165,3 +166,44 @@ def points_from_disparity(disparity: Any, rig: _RigLike) -> np.ndarray:
     points[..., 2] = z
     points[~np.isfinite(points).all(axis=-1)] = np.nan
     return points
+
+
+def points_from_pixels(u: Any, v: Any, disparity: Any, rig: _RigLike) -> np.ndarray:
+    """3D points (X, Y, Z) of chosen pixels in the left rectified camera frame, metres, float64.
+
+    The same pinhole geometry as :func:`points_from_disparity`, for a set of pixels instead of a whole
+    image and in float64: ``Z = f B / (d + doffs)``, ``X = (u - cx_left) Z / f``, ``Y = (v - cy) Z / f``.
+
+    Parameters
+    ----------
+    u, v : (N,) real arrays
+        Column and row of each pixel in the left rectified image.
+    disparity : (N,) real array, pixels
+        Disparity of each pixel; a pixel with ``d + doffs <= 0`` or a non-finite value gets NaN.
+    rig : RectifiedRig
+        Anything with ``focal_px``, ``cx_left``, ``cy``, ``baseline_m`` and ``doffs``.
+
+    Returns
+    -------
+    points : (N, 3) float64, metres, X right, Y down, Z forward.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> rig = SimpleNamespace(focal_px=500.0, baseline_m=0.1, doffs=0.0, cx_left=20.0, cy=15.0)
+    >>> points_from_pixels([30], [15], [10.0], rig).tolist()
+    [[0.1, 0.0, 5.0]]
+    """
+    uu = _as_real_array("u", u).astype(np.float64, copy=False).ravel()
+    vv = _as_real_array("v", v).astype(np.float64, copy=False).ravel()
+    d = _as_real_array("disparity", disparity).astype(np.float64, copy=False).ravel()
+    if not (uu.shape == vv.shape == d.shape):
+        raise ValueError(f"`u`, `v` and `disparity` must have the same length, got {uu.size}, {vv.size} and {d.size}")
+    f = check_positive("rig.focal_px", rig.focal_px)
+    doffs = check_finite("rig.doffs", rig.doffs)
+    fb = f * check_positive("rig.baseline_m", rig.baseline_m)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        z = np.where(np.isfinite(d) & (d + doffs > 0), fb / (d + doffs), np.nan)
+        x = (uu - check_finite("rig.cx_left", rig.cx_left)) * z / f
+        y = (vv - check_finite("rig.cy", rig.cy)) * z / f
+    return np.stack([x, y, z], axis=-1)
