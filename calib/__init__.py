@@ -4,16 +4,20 @@ A leaf package: it imports neither ``stereo_classic`` nor ``detectors``.
 
 - :class:`StereoRig`: raw cameras (K, distortion, R, T, image size) -> :meth:`StereoRig.rectify`
 - :class:`RectifiedRig`: rectified geometry (focal, principal points, baseline) -> depth and 3D points
-- readers/writers: OpenCV YAML/XML, KITTI, Middlebury, ROS camera_info, OAK-D JSON; :func:`load_rig` sniffs
+- :mod:`calib.formats`: readers/writers of OpenCV YAML/XML, KITTI, Middlebury, ROS camera_info, OAK-D JSON
+  (plain values; the rigs' ``from_*`` constructors use them); :func:`load_rig` sniffs the format
 - :func:`calibrate_stereo`: checkerboard or ChArUco image pairs -> (StereoRig, CalibrationReport)
 """
+
+from __future__ import annotations
 
 from calib.boards import CharucoBoard, CheckerBoard, detect_board
 from calib.calibrate import CalibrationReport, calibrate_stereo
 from calib.errors import CalibrationError
 from calib.features import vertical_offset
-from calib.formats import load_rig, read_kitti_calib, read_middlebury_calib, read_oakd_calib
-from calib.geometry import depth_from_disparity, disparity_from_depth, points_from_disparity
+from calib.formats import read_kitti_calib, read_middlebury_calib, read_oakd_calib
+from calib.geometry import depth_from_disparity, disparity_from_depth, points_from_disparity, points_from_pixels
+from calib.load import load_rig
 from calib.rectified import RectificationWarning, RectifiedRig
 from calib.rig import StereoRig
 
@@ -31,6 +35,7 @@ __all__ = [
     "disparity_from_depth",
     "load_rig",
     "points_from_disparity",
+    "points_from_pixels",
     "read_kitti_calib",
     "read_middlebury_calib",
     "read_oakd_calib",

@@ -3,6 +3,8 @@
 Conventions: disparity ``d = x_left - x_right`` in pixels (float32), depth ``Z`` in metres, NaN means
 unknown. With ``doffs = cx_right - cx_left`` (pixels) the depth is ``Z = f * B / (d + doffs)``; where
 ``d + doffs <= 0`` or the input is not finite the result is NaN (never ``inf``, never ``1e8``).
+
+The ``check_*`` helpers validate the scalar values (and image sizes) that the rigs and the file readers share.
 """
 
 from __future__ import annotations
@@ -12,6 +14,8 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from calib.errors import CalibrationError
+
 __all__ = [
     "depth_from_disparity",
     "disparity_from_depth",
@@ -19,6 +23,7 @@ __all__ = [
     "points_from_pixels",
     "check_positive",
     "check_finite",
+    "check_image_size",
 ]
 
 
@@ -49,6 +54,32 @@ def check_finite(name: str, value: Any) -> float:
     if not math.isfinite(value):
         raise ValueError(f"`{name}` must be finite, got {value!r}")
     return value
+
+
+def check_image_size(name: str, value: Any) -> tuple[int, int]:
+    """``(width, height)`` as two positive Python ints, else CalibrationError naming ``name``.
+
+    Examples
+    --------
+    >>> check_image_size("image_size", (640.0, 480))
+    (640, 480)
+    """
+    try:
+        items = tuple(value)
+    except TypeError:
+        raise CalibrationError(f"`{name}` must be (width, height), two positive ints, got {value!r}") from None
+    if len(items) != 2:
+        raise CalibrationError(f"`{name}` must be (width, height), two positive ints, got {value!r}")
+    out = []
+    for item in items:
+        if isinstance(item, (bool, np.bool_)):
+            raise CalibrationError(f"`{name}` must be (width, height), two positive ints, got {value!r}")
+        if isinstance(item, (float, np.floating)) and float(item).is_integer():
+            item = int(item)
+        if not isinstance(item, (int, np.integer)) or int(item) <= 0:
+            raise CalibrationError(f"`{name}` must be (width, height), two positive ints, got {value!r}")
+        out.append(int(item))
+    return out[0], out[1]
 
 
 def _as_real_array(name: str, values: Any) -> np.ndarray:

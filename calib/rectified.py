@@ -7,13 +7,16 @@ import math
 import os
 import warnings
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 
-from calib.errors import CalibrationError
-from calib.geometry import check_finite, depth_from_disparity, points_from_disparity
+from calib.errors import CalibrationError, prefix_errors
+from calib.features import vertical_offset
+from calib.formats import kitti, middlebury, oakd, opencv
+from calib.geometry import check_finite, check_image_size, depth_from_disparity, disparity_from_depth, points_from_disparity
 
 __all__ = ["RectifiedRig", "RectificationWarning", "check_image_size", "FOCAL_RANGE_PX", "BASELINE_RANGE_M"]
 
@@ -30,26 +33,6 @@ BASELINE_RANGE_M = (1e-6, 1e4)
 
 class RectificationWarning(UserWarning):
     """The rectified pair still has a vertical offset (epipolar lines are not image rows)."""
-
-
-def check_image_size(name: str, value: Any) -> tuple[int, int]:
-    """``(width, height)`` as two positive Python ints, else CalibrationError naming ``name``."""
-    try:
-        items = tuple(value)
-    except TypeError:
-        raise CalibrationError(f"`{name}` must be (width, height), two positive ints, got {value!r}") from None
-    if len(items) != 2:
-        raise CalibrationError(f"`{name}` must be (width, height), two positive ints, got {value!r}")
-    out = []
-    for item in items:
-        if isinstance(item, (bool, np.bool_)):
-            raise CalibrationError(f"`{name}` must be (width, height), two positive ints, got {value!r}")
-        if isinstance(item, (float, np.floating)) and float(item).is_integer():
-            item = int(item)
-        if not isinstance(item, (int, np.integer)) or int(item) <= 0:
-            raise CalibrationError(f"`{name}` must be (width, height), two positive ints, got {value!r}")
-        out.append(int(item))
-    return out[0], out[1]
 
 
 def _check_maps(name: str, maps: Any, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray] | None:
@@ -202,8 +185,6 @@ class RectifiedRig:
 
     def disparity(self, depth: Any) -> np.ndarray:
         """Disparity in pixels (float32, NaN where unknown) of a depth map in metres."""
-        from calib.geometry import disparity_from_depth
-
         return disparity_from_depth(depth, self.focal_px, self.baseline_m, self.doffs)
 
     def points(self, disparity: Any) -> np.ndarray:
@@ -298,8 +279,6 @@ class RectifiedRig:
         if check_offset is None:
             check_offset = self.has_maps and "vertical_offset_px" not in self._checks
         if check_offset:
-            from calib.features import vertical_offset
-
             offset = vertical_offset(left, right)
             self._checks["vertical_offset_px"] = offset
             if math.isnan(offset):
@@ -315,26 +294,34 @@ class RectifiedRig:
 
     # ----------------------------------------------------------------- readers / writers
     @classmethod
-    def from_middlebury(cls, calib_txt: str | os.PathLike[str], *, image_size: tuple[int, int] | None = None) -> RectifiedRig:
-        """Middlebury 2014/2021 ``calib.txt`` (``cam0``, ``cam1``, ``doffs``, ``baseline`` in **mm**, width, height)."""
-        from calib.formats import read_middlebury
+    def _from_file_values(cls, path: str | os.PathLike[str], values: dict[str, Any]) -> RectifiedRig:
+        """``cls(**values)``, a refused value reported with the file's name in front."""
+        with prefix_errors(Path(path)):
+            return cls(**values)
 
-        return read_middlebury(calib_txt, image_size=image_size)
+    @classmethod
+    def from_middlebury(cls, calib_txt: str | os.PathLike[str], *, image_size: tuple[int, int] | None = None) -> RectifiedRig:
+        """Middlebury 2014/2021 ``calib.txt`` (``cam0``, ``cam1``, ``doffs``, ``baseline`` in **mm**, width, height).
+
+        See :func:`calib.formats.middlebury.read_rectified` (a ``calib.txt`` of another resolution is scaled
+        to ``image_size`` when the aspect ratio agrees).
+        """
+        return cls._from_file_values(calib_txt, middlebury.read_rectified(calib_txt, image_size=image_size))
 
     @classmethod
     def from_kitti(cls, calib_txt: str | os.PathLike[str], *, left: int = 2, right: int = 3,
                    image_size: tuple[int, int] | None = None) -> RectifiedRig:
-        """KITTI object ``calib.txt`` (``P0:``..``P3:``) or raw ``calib_cam_to_cam.txt`` (``P_rect_0N``)."""
-        from calib.formats import read_kitti_rectified
+        """KITTI object ``calib.txt`` (``P0:``..``P3:``) or raw ``calib_cam_to_cam.txt`` (``P_rect_0N``).
 
-        return read_kitti_rectified(calib_txt, left=left, right=right, image_size=image_size)
+        ``left``/``right`` are KITTI camera indices 0..3; the image size comes from ``S_rect_0N``,
+        ``image_size=`` or else 1242x375 (see :func:`calib.formats.kitti.read_rectified`).
+        """
+        return cls._from_file_values(calib_txt, kitti.read_rectified(calib_txt, left=left, right=right, image_size=image_size))
 
     @classmethod
     def from_oakd_json(cls, path: str | os.PathLike[str]) -> RectifiedRig:
         """The stereodemo / OAK-D JSON (``fx``, ``cx0``, ``cx1``, ``cy``, ``baseline_meters``, width, height)."""
-        from calib.formats import read_oakd_json
-
-        return read_oakd_json(path)
+        return cls._from_file_values(path, oakd.read_rectified(path))
 
     @classmethod
     def from_opencv_yaml(cls, path: str | os.PathLike[str], *, image_size: tuple[int, int] | None = None,
@@ -344,12 +331,11 @@ class RectifiedRig:
         ``maps=True``: also build the rectification maps from the file's ``K1 D1 K2 D2 R1 R2 P1 P2``, so that
         :meth:`rectify_pair` takes raw images and rectifies them exactly as the file says.
         """
-        from calib.formats import read_opencv_rectified
-
-        return read_opencv_rectified(path, image_size=image_size, maps=maps)
+        if not maps:
+            return cls._from_file_values(path, opencv.read_rectified(path, image_size=image_size))
+        rig = cls._from_file_values(path, opencv.read_projections(path, image_size=image_size))
+        return replace(rig, **opencv.read_rectify_maps(path, image_size=rig.image_size))
 
     def to_opencv_yaml(self, path: str | os.PathLike[str]) -> None:
         """Write ``P1``, ``P2``, ``Q`` and the image size to an OpenCV YAML (or XML, by extension), atomically."""
-        from calib.formats import write_rectified_opencv
-
-        write_rectified_opencv(self, path)
+        opencv.write_rectified(path, P_left=self.P_left, P_right=self.P_right, Q=self.Q, image_size=self.image_size)

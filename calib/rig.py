@@ -5,13 +5,16 @@ from __future__ import annotations
 import logging
 import os
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import cv2
 import numpy as np
 
-from calib.errors import CalibrationError
-from calib.rectified import BASELINE_RANGE_M, FOCAL_RANGE_PX, RectifiedRig, check_image_size
+from calib.errors import CalibrationError, prefix_errors
+from calib.formats import kitti, opencv, ros
+from calib.geometry import check_image_size
+from calib.rectified import BASELINE_RANGE_M, FOCAL_RANGE_PX, RectifiedRig
 
 __all__ = ["StereoRig"]
 
@@ -223,30 +226,36 @@ class StereoRig:
         The image size comes from ``image_width``/``image_height`` (or ``image_size``/``imageSize``) in the
         file, or from ``image_size=`` when the file has none. ``T`` must be in metres.
         """
-        from calib.formats import read_opencv_stereo
-
-        return read_opencv_stereo(path, image_size=image_size)
+        values = opencv.read_stereo(path, image_size=image_size)
+        with prefix_errors(Path(path)):
+            return cls(**values)
 
     @classmethod
     def from_kitti(cls, path: str | os.PathLike[str], *, left: int = 2, right: int = 3) -> StereoRig:
         """KITTI raw ``calib_cam_to_cam.txt`` (``K_0N``, ``D_0N``, ``R_0N``, ``T_0N``, ``S_0N``): unrectified cameras."""
-        from calib.formats import read_kitti_raw_stereo
-
-        return read_kitti_raw_stereo(path, left=left, right=right)
+        values = kitti.read_raw_stereo(path, left=left, right=right)
+        with prefix_errors(Path(path)):
+            return cls(**values)
 
     @classmethod
     def from_ros(cls, left_yaml: str | os.PathLike[str], right_yaml: str | os.PathLike[str]) -> StereoRig:
         """A pair of ROS ``camera_info`` YAML files (``camera_matrix``, ``distortion_coefficients``,
         ``rectification_matrix``, ``projection_matrix``, ``image_width``, ``image_height``)."""
-        from calib.formats import read_ros_pair
-
-        return read_ros_pair(left_yaml, right_yaml)
+        values = ros.read_stereo_pair(left_yaml, right_yaml)
+        with prefix_errors(f"{Path(left_yaml)} + {Path(right_yaml)}"):
+            return cls(**values)
 
     def to_opencv_yaml(self, path: str | os.PathLike[str]) -> None:
         """Write ``K1 D1 K2 D2 R T``, the image size and ``R1 R2 P1 P2 Q`` (alpha 0) atomically.
 
         YAML unless ``path`` ends in ``.xml``. :meth:`from_opencv_yaml` reads back the same rig exactly.
+        A rig that OpenCV cannot rectify is still written, without ``R1 R2 P1 P2 Q`` (logged).
         """
-        from calib.formats import write_stereo_opencv
-
-        write_stereo_opencv(self, path)
+        try:
+            rectification = self.rectification(alpha=0.0)
+        except cv2.error as exc:  # a rig OpenCV cannot rectify still gets written
+            log.warning("could not compute R1 R2 P1 P2 Q for %s: %s", path, exc)
+            rectification = {}
+        opencv.write_stereo(path, K_left=self.K_left, dist_left=self.dist_left, K_right=self.K_right,
+                            dist_right=self.dist_right, R=self.R, T=self.T, image_size=self.image_size,
+                            rectification=rectification)

@@ -1,14 +1,17 @@
-"""calib geometry: depth <-> disparity <-> points; NaN in gives NaN out, d + doffs <= 0 gives NaN, float32."""
+"""calib geometry: depth <-> disparity <-> points (whole maps and chosen pixels); NaN in gives NaN out, d + doffs <= 0 gives NaN, float32."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from calib import RectifiedRig, depth_from_disparity, disparity_from_depth, points_from_disparity
+from calib import RectifiedRig, depth_from_disparity, disparity_from_depth, points_from_disparity, points_from_pixels
 
 F, B = 999.421, 0.193001
 
@@ -104,8 +107,6 @@ class TestPointsFromDisparity:
         np.testing.assert_array_equal(self.rig.points(d), pts)
 
     def test_matches_cv2_reproject(self):
-        import cv2
-
         rng = np.random.default_rng(1)
         d = rng.uniform(1.0, 60.0, size=(30, 40)).astype(np.float32)
         ours = self.rig.points(d)
@@ -117,6 +118,85 @@ class TestPointsFromDisparity:
             points_from_disparity(np.ones((15, 20), np.float32), self.rig)
         with pytest.raises(ValueError, match="2-D"):
             points_from_disparity(np.ones((30, 40, 1), np.float32), self.rig)
+
+
+class TestPointsFromPixels:
+    rig = RectifiedRig(focal_px=500.0, cx_left=20.0, cx_right=25.0, cy=10.0, baseline_m=0.1, image_size=(40, 30))
+
+    def test_golden_values_and_frame(self):
+        # d + doffs = 50 -> Z = 500 * 0.1 / 50 = 1 m; 10 px right of and below the principal point -> X = Y = 0.02 m
+        pts = points_from_pixels([20, 30, 20], [10, 20, 10], [45.0, 45.0, 95.0], self.rig)
+        assert pts.dtype == np.float64 and pts.shape == (3, 3)
+        np.testing.assert_allclose(pts, [[0.0, 0.0, 1.0], [0.02, 0.02, 1.0], [0.0, 0.0, 0.5]], rtol=1e-12, atol=1e-15)
+
+    def test_agrees_with_points_from_disparity_at_the_same_pixels(self):
+        rng = np.random.default_rng(7)
+        d = rng.uniform(-12.0, 60.0, size=(30, 40)).astype(np.float32)  # d + doffs <= 0 in about a tenth
+        d[rng.random(d.shape) < 0.1] = np.nan
+        d[3, 4] = -5.0  # d + doffs == 0 exactly
+        full = points_from_disparity(d, self.rig)
+        v, u = np.nonzero(np.ones(d.shape, dtype=bool))
+        pts = points_from_pixels(u, v, d[v, u], self.rig)
+        assert pts.shape == (u.size, 3) and pts.dtype == np.float64
+        np.testing.assert_array_equal(np.isnan(pts), np.isnan(full[v, u]))
+        assert np.isnan(pts).any() and not np.isnan(pts).all()
+        np.testing.assert_allclose(pts, full[v, u], rtol=1e-6, atol=0)  # float32 precision of the map
+
+    def test_a_random_subset_in_any_order(self):
+        rng = np.random.default_rng(8)
+        d = rng.uniform(1.0, 60.0, size=(30, 40)).astype(np.float32)
+        full = points_from_disparity(d, self.rig)
+        u, v = rng.integers(0, 40, 50), rng.integers(0, 30, 50)
+        np.testing.assert_allclose(points_from_pixels(u, v, d[v, u], self.rig), full[v, u], rtol=1e-6, atol=0)
+
+    @pytest.mark.parametrize("d", [np.nan, -5.0, -5.5, -100.0, np.inf, -np.inf])
+    def test_unknown_depth_gives_nan(self, d):
+        # doffs = 5: d + doffs <= 0 or d not finite -> all three coordinates NaN, never inf
+        pts = points_from_pixels(np.array([3, 20]), np.array([4, 10]), np.array([d, 45.0]), self.rig)
+        assert np.isnan(pts[0]).all()
+        np.testing.assert_allclose(pts[1], [0.0, 0.0, 1.0])
+
+    @pytest.mark.parametrize(
+        "u, v, d, got",
+        [
+            ([1, 2], [1, 2, 3], [1.0, 2.0], "got 2, 3 and 2"),
+            ([1, 2], [1, 2], [1.0], "got 2, 2 and 1"),
+            ([], [1], [], "got 0, 1 and 0"),
+        ],
+    )
+    def test_length_mismatch_names_the_parameters(self, u, v, d, got):
+        with pytest.raises(ValueError, match=rf"`u`, `v` and `disparity` must have the same length, {got}"):
+            points_from_pixels(u, v, d, self.rig)
+
+    def test_empty_and_dtypes(self):
+        assert points_from_pixels([], [], [], self.rig).shape == (0, 3)
+        ints = points_from_pixels(np.array([30], np.int32), np.array([20], np.uint16), np.array([45], np.int64), self.rig)
+        np.testing.assert_allclose(ints, [[0.02, 0.02, 1.0]])
+        with pytest.raises(ValueError, match="`disparity`"):
+            points_from_pixels([1], [1], ["x"], self.rig)
+        with pytest.raises(ValueError, match="`u`"):
+            points_from_pixels([True], [1], [1.0], self.rig)
+
+    def test_rig_values_are_checked(self):
+        from_rig = dict(focal_px=500.0, cx_left=20.0, cy=10.0, baseline_m=0.1, doffs=5.0)
+        for name, bad in (("focal_px", 0.0), ("baseline_m", -0.1), ("doffs", float("nan")), ("cx_left", float("inf"))):
+            with pytest.raises(ValueError, match=f"rig.{name}"):
+                points_from_pixels([1], [1], [1.0], SimpleNamespace(**(from_rig | {name: bad})))
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    f=st.floats(1.0, 5000.0), b=st.floats(1e-3, 2.0), doffs=st.floats(-50.0, 50.0, width=32),
+    d=st.lists(st.one_of(st.floats(-100.0, 300.0, width=32), st.just(float("nan"))), min_size=1, max_size=8),
+)
+def test_property_pixels_depth_agrees_with_depth_from_disparity(f, b, doffs, d):
+    # doffs exact in float32: the float32 sum d + doffs has the sign of the exact one, so NaN falls on the same pixels
+    rig = SimpleNamespace(focal_px=f, cx_left=0.0, cy=0.0, baseline_m=b, doffs=doffs)
+    d = np.array(d, dtype=np.float32)
+    z = points_from_pixels(np.zeros(d.size), np.zeros(d.size), d, rig)[:, 2]
+    ref = depth_from_disparity(d, f, b, doffs)
+    np.testing.assert_array_equal(np.isnan(z), np.isnan(ref))
+    np.testing.assert_allclose(z, ref, rtol=1e-6)
 
 
 finite_or_not = st.floats(allow_nan=True, allow_infinity=True, width=32)

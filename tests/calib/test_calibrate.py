@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from calib import CalibrationError, CharucoBoard, CheckerBoard, StereoRig, calibrate_stereo, detect_board
+from calib.calibrate import _load
 from calib.synthetic import render_stereo_views
 
 TRUE_RIG = StereoRig(
@@ -266,8 +267,6 @@ def test_cli_too_few_views_is_a_runtime_error(tmp_path, capsys):
 
 
 def test_calibration_images_are_read_on_any_path(tmp_path, monkeypatch):
-    from calib.calibrate import _load
-
     img = np.arange(6 * 9, dtype=np.uint8).reshape(6, 9)
     path = tmp_path / "vue_gauche_é.png"
     path.write_bytes(cv2.imencode(".png", img)[1].tobytes())
