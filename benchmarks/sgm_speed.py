@@ -51,7 +51,7 @@ def opencv_runner(mode: int, num_disparities: int, block_size: int = 5):
 
 
 def sgm_runner(num_disparities: int, threads: int, cost: str, paths: int, workspace: bool = True, **kw):
-    from stereo_classic._sgm_core import Workspace, sgm_match
+    from stereo_classic.matching._kernels.core import Workspace, sgm_match
 
     stages: list[dict[str, float]] = []
     # buffers kept between calls, like the buffer inside a reused OpenCV StereoSGBM object

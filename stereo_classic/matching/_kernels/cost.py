@@ -7,7 +7,7 @@ disparity ``min_disparity + k``; the left pixel ``x`` is matched with the right 
 (straight vector loads, no gathers).
 
 Costs where ``x - min_disparity - k`` falls outside the image are replaced by ``invalid_cost``
-(see ``_sgm_core``), never computed from padding.
+(see ``core``), never computed from padding.
 
 SAD cost (the paper's n x n window, with its "brightness processing"): per-pixel difference
 ``|sobel_L - sobel_R| + |I_L - I_R| // 4`` where ``sobel`` is the horizontal Sobel response clipped
@@ -18,15 +18,21 @@ replicated, then right-shifted by ``sad_shift`` so that the SGM sums fit int16.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
-from ._sgm_intrinsics import absdiff16, add16, popcnt16, shr16, sub16
+from stereo_classic.matching._kernels.intrinsics import absdiff16, add16, popcnt16, shr16, sub16
 
 __all__ = [
     "SOBEL_CAP",
     "SAD_PIXEL_MAX",
+    "CENSUS",
+    "SAD",
+    "CostImages",
+    "CostSettings",
     "census_transform",
     "census_bits",
     "sad_prefilter",
@@ -36,6 +42,63 @@ __all__ = [
 
 SOBEL_CAP = 31
 SAD_PIXEL_MAX = 2 * SOBEL_CAP + 255 // 4  # largest per-pixel SAD term (125)
+#: ``CostSettings.kind`` of the census cost and of the SAD cost.
+CENSUS = 0
+SAD = 1
+
+
+class CostImages(NamedTuple):
+    """The arrays the matching cost reads for one pair (numba takes the tuple as one argument).
+
+    The cost not in use gets distinct small placeholders of the same dtype and number of
+    dimensions (one compiled kernel serves both costs; no two fields may share a buffer, see
+    ``NoAliasCompiler``).
+
+    Attributes
+    ----------
+    left : (H, W) uint8
+        The left grey image (adaptive P2 reads it; its shape is the image size).
+    left_code, right_code : uint16 or uint64
+        Census codes: (H, W, 4) uint16 (four 16-bit quarters, quarter 0 = bits 0-15) for the fused
+        passes, (H, W) uint64 for ``cost_volume_kernel``; (1, 1[, 4]) placeholders for SAD.
+    left_sobel, left_intensity, right_sobel, right_intensity : (H, W) int16
+        The SAD channels of ``sad_prefilter``; (1, 1) placeholders for census.
+    """
+
+    left: np.ndarray
+    left_code: np.ndarray
+    right_code: np.ndarray
+    left_sobel: np.ndarray
+    left_intensity: np.ndarray
+    right_sobel: np.ndarray
+    right_intensity: np.ndarray
+
+
+class CostSettings(NamedTuple):
+    """How the cost of disparity index ``k`` is computed (all plain ints).
+
+    Attributes
+    ----------
+    kind : int
+        ``CENSUS`` (0) or ``SAD`` (1).
+    min_disparity : int
+        Disparity of index 0, pixels (may be negative).
+    half_block : int
+        ``block_size // 2`` for SAD, 0 for census.
+    shift : int
+        Right shift of the SAD window sum (0 for census), see ``core.cost_scale``.
+    cmax : int
+        Largest cost after the shift.
+    invalid_cost : int
+        Cost of a disparity whose match lies outside the right image: ``cmax + 2 * p2_scaled + 1``.
+    """
+
+    kind: int
+    min_disparity: int
+    half_block: int
+    shift: int
+    cmax: int
+    invalid_cost: int
 
 
 def census_bits(census_window: tuple[int, int]) -> int:
@@ -244,9 +307,22 @@ def fill_invalid(C, x, W, dmin, cinv, D):  # pragma: no cover - numba
 
 
 @njit(cache=True, nogil=True)
-def cost_volume_kernel(kind, lcode, rcode, lsob, lint, rsob, rint, dmin, h, shift, cmax, cinv, out):  # pragma: no cover
-    """Fill out (H, W, D) int16 with the cost the fused passes use. kind 0 = census, 1 = SAD."""
+def cost_volume_kernel(images, cost, out):  # pragma: no cover - numba
+    """Fill ``out`` (H, W, D) int16 with the cost the fused passes use.
+
+    ``images``: a ``CostImages`` (census codes as (H, W) uint64); ``cost``: a ``CostSettings``.
+    """
     H, W, D = out.shape
+    kind = cost.kind
+    dmin = cost.min_disparity
+    h = cost.half_block
+    cinv = np.int16(cost.invalid_cost)
+    lcode = images.left_code
+    rcode = images.right_code
+    lsob = images.left_sobel
+    lint = images.left_intensity
+    rsob = images.right_sobel
+    rint = images.right_intensity
     C = np.empty(D, np.int16)
     if kind == 0:
         rrev = np.empty(W + D - 1, np.uint64)
@@ -272,6 +348,6 @@ def cost_volume_kernel(kind, lcode, rcode, lsob, lint, rsob, rint, dmin, h, shif
                     sad_hsum_init(hsum, colsum, x, h, D)
                 else:
                     sad_hsum_advance(hsum, colsum, x, 1, h, D)
-                sad_pixel_cost(hsum, shift, cmax, C, D)
+                sad_pixel_cost(hsum, cost.shift, cost.cmax, C, D)
                 fill_invalid(C, x, W, dmin, cinv, D)
                 out[y, x, :] = C

@@ -1,4 +1,4 @@
-"""Public matcher API: SGMParams, compute_disparity, StereoMatcher, DisparityMap, memory budget, post-processing."""
+"""The matcher (stereo_classic.matching.matcher): compute_disparity, StereoMatcher, DisparityMap, memory budget."""
 
 from __future__ import annotations
 
@@ -11,8 +11,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from stereo_classic import matcher as matcher_mod
-from stereo_classic.matcher import (
+from stereo_classic.matching import matcher as matcher_mod
+from stereo_classic.matching._kernels import core as kernels
+from stereo_classic.matching.matcher import (
     DisparityMap,
     MemoryBudgetError,
     StereoInputError,
@@ -21,8 +22,7 @@ from stereo_classic.matcher import (
     estimate_memory,
     to_gray_uint8,
 )
-from stereo_classic.params import MEMORY_LIMIT_ENV, SGMParams, default_memory_limit, parse_bytes
-from stereo_classic.postprocess import fill_holes, filter_speckles
+from stereo_classic.matching.params import MEMORY_LIMIT_ENV, SGMParams
 
 
 # --------------------------------------------------------------------------------------------------
@@ -54,82 +54,6 @@ def _shift_pair(shape=(48, 96), shift=7, seed=0):
     right = np.random.default_rng(seed).integers(0, 256, shape, dtype=np.uint8)
     left = np.roll(right, shift, axis=1)
     return left, right
-
-
-# --------------------------------------------------------------------------------------------------
-# SGMParams
-# --------------------------------------------------------------------------------------------------
-class TestParams:
-    def test_defaults_and_effective_penalties(self):
-        p = SGMParams()
-        assert (p.cost, p.num_disparities, p.block_size, p.paths) == ("census", 64, 5, 8)
-        assert (p.effective_p1, p.effective_p2) == (20, 80)
-        sad = p.replace(cost="sad", block_size=3)
-        assert (sad.effective_p1, sad.effective_p2) == (8 * 9, 32 * 9)
-        assert p.replace(p1=3, p2=30).effective_p2 == 30
-        assert p.max_disparity == 63
-        assert SGMParams(min_disparity=-10, num_disparities=20).max_disparity == 9
-
-    def test_frozen_replace_to_dict(self):
-        p = SGMParams(num_disparities=100)  # any positive count, not only multiples of 16
-        with pytest.raises(dataclasses.FrozenInstanceError):
-            p.num_disparities = 3  # type: ignore[misc]
-        q = p.replace(uniqueness=10)
-        assert q.uniqueness == 10.0 and p.uniqueness == 0.0
-        d = q.to_dict()
-        assert d["num_disparities"] == 100 and d["census_window"] == [9, 7]
-        assert SGMParams(**{**d, "census_window": tuple(d["census_window"])}) == q
-        with pytest.raises(ValueError, match="unknown SGM parameter.*'num_disp'"):
-            p.replace(num_disp=3)
-
-    def test_normalises_numpy_scalars(self):
-        p = SGMParams(num_disparities=np.int64(32), uniqueness=np.float32(5), census_window=[7, 7])
-        assert type(p.num_disparities) is int and p.census_window == (7, 7) and p.uniqueness == 5.0
-
-    @pytest.mark.parametrize("field, value", [
-        ("min_disparity", 1.5), ("min_disparity", "0"), ("min_disparity", 10**6),
-        ("num_disparities", 0), ("num_disparities", -16), ("num_disparities", 16.0), ("num_disparities", True),
-        ("num_disparities", 10**6),
-        ("block_size", 4), ("block_size", 0), ("block_size", 23), ("block_size", 5.0),
-        ("p1", -1), ("p1", 2.5), ("p2", 10**6),
-        ("cost", "ssd"), ("cost", None),
-        ("census_window", (9, 9)), ("census_window", (8, 7)), ("census_window", 9), ("census_window", (9, 7, 1)),
-        ("adaptive_p2", 1), ("subpixel", "yes"), ("fill_holes", None),
-        ("uniqueness", -1), ("uniqueness", 101), ("uniqueness", float("nan")),
-        ("lr_check", -1), ("lr_check", float("inf")), ("lr_check", "1"), ("lr_mode", "strict"), ("lr_mode", None),
-        ("right_view", 1),
-        ("speckle_size", -1), ("speckle_size", 2.5), ("speckle_range", -0.5), ("speckle_range", float("nan")),
-        ("paths", 16), ("paths", 2), ("threads", 0), ("threads", 1.5),
-        ("memory_limit", 0), ("memory_limit", -5), ("memory_limit", 1.5e9),
-    ])
-    def test_bad_field_names_field(self, field, value):
-        with pytest.raises(ValueError, match=f"`{field}`"):
-            SGMParams(**{field: value})
-
-    @pytest.mark.parametrize("kwargs", [dict(p1=80, p2=80), dict(p1=100), dict(cost="sad", p2=10)])
-    def test_p2_must_exceed_p1(self, kwargs):
-        with pytest.raises(ValueError, match="`p2` must be larger than `p1`"):
-            SGMParams(**kwargs)
-
-    def test_memory_limit_from_env(self, monkeypatch):
-        monkeypatch.setenv(MEMORY_LIMIT_ENV, "2G")
-        assert SGMParams().effective_memory_limit == 2 * 1024**3
-        assert SGMParams(memory_limit=1234).effective_memory_limit == 1234
-        monkeypatch.setenv(MEMORY_LIMIT_ENV, "lots")
-        with pytest.raises(ValueError, match=MEMORY_LIMIT_ENV):
-            default_memory_limit()
-        monkeypatch.delenv(MEMORY_LIMIT_ENV)
-        assert default_memory_limit() > 100 * 1024**2  # half of this machine's RAM
-
-    @pytest.mark.parametrize("text, expected",
-                             [("4096", 4096), ("1k", 1024), ("1.5 GiB", 3 * 2**29), ("2MB", 2 * 2**20)])
-    def test_parse_bytes(self, text, expected):
-        assert parse_bytes(text) == expected
-
-    @pytest.mark.parametrize("text", ["", "-1G", "0", "1X", "G", "nan"])
-    def test_parse_bytes_rejects(self, text):
-        with pytest.raises(ValueError, match="byte count"):
-            parse_bytes(text)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -288,7 +212,7 @@ class TestComputeDisparity:
         need = estimate_memory(left.shape, SGMParams(num_disparities=16, threads=1))
         m = StereoMatcher(num_disparities=16, threads=1, memory_limit=need + need // 2)  # one call fits, two do not
         expected = m.compute(left, right).disparity  # the size is checked (and remembered) once
-        core = matcher_mod._core()
+        core = kernels
         inside, go_on = threading.Event(), threading.Event()
         real = core.sgm_match
 
@@ -478,23 +402,21 @@ class TestErrors:
     def test_penalty_limit_is_checked_once_when_the_params_are_built(self, pair, monkeypatch):
         import sys
 
-        from stereo_classic import _sgm_core
-
         params = SGMParams(num_disparities=16)  # frozen and checked here, P1/P2 limit included
         callers = []
-        real = _sgm_core.check_penalties
+        real = kernels.check_penalties
 
         def spy(*args):
             callers.append(sys._getframe(1).f_globals["__name__"])
             return real(*args)
 
-        monkeypatch.setattr(_sgm_core, "check_penalties", spy)
+        monkeypatch.setattr(kernels, "check_penalties", spy)
         compute_disparity(*pair, params)
         StereoMatcher(params).compute(*pair)
         # the kernels' entry point checks its own arguments; the matcher does not repeat the params' check
-        assert "stereo_classic.matcher" not in callers and "stereo_classic.params" not in callers
+        assert "stereo_classic.matching.matcher" not in callers and "stereo_classic.matching.params" not in callers
         compute_disparity(*pair, params, p2=100)  # a changed field builds (and checks) new params
-        assert callers.count("stereo_classic.params") == 1
+        assert callers.count("stereo_classic.matching.params") == 1
 
     @pytest.mark.parametrize("kwargs",
                              [dict(p1=10, p2=30000), dict(p1=10, p2=1400), dict(census_window=(3, 3), p2=1500)])
@@ -587,56 +509,6 @@ class TestDisparityMap:
 
 
 # --------------------------------------------------------------------------------------------------
-# post-processing
-# --------------------------------------------------------------------------------------------------
-class TestPostprocess:
-    def test_speckles_removed_large_regions_kept(self):
-        d = np.full((30, 30), 10.0, np.float32)
-        d[5:7, 5:7] = 20.0  # 4-pixel speckle
-        d[15:25, 15:25] = 30.0  # 100-pixel region
-        d[0, :] = np.nan
-        out = filter_speckles(d, max_size=10, max_diff=1.0)
-        assert np.isnan(out[5:7, 5:7]).all() and np.isfinite(out[15:25, 15:25]).all()
-        assert np.isnan(out).sum() == 4 + 30
-        assert np.isnan(d).sum() == 30  # input untouched
-        # a range wider than the jump merges the speckle with its surroundings
-        d2 = d.copy()
-        d2[5:7, 5:7] = 10.5
-        assert np.isnan(filter_speckles(d2, max_size=10, max_diff=1.0)).sum() == 30
-        np.testing.assert_array_equal(filter_speckles(d, max_size=0, max_diff=1.0), d)
-
-    def test_speckles_subpixel_range_and_large_disparity(self):
-        d = np.full((20, 20), 3000.0, np.float32)  # d * 16 would overflow int16: scaled down instead
-        d[3, 3] = 3010.0
-        out = filter_speckles(d, max_size=5, max_diff=2.0)
-        assert np.isnan(out).sum() == 1 and np.isnan(out[3, 3])
-        ramp = np.tile(np.arange(20, dtype=np.float32) * 0.25, (20, 1))  # steps of 0.25 px: one region
-        assert not np.isnan(filter_speckles(ramp, max_size=50, max_diff=0.3)).any()
-        assert np.isnan(filter_speckles(ramp, max_size=50, max_diff=0.2)).all()
-
-    def test_fill_holes_background(self):
-        d = np.array([[5, np.nan, np.nan, 9, np.nan], [np.nan] * 5, [1, 2, 3, 4, 5]], np.float32)
-        out = fill_holes(d)
-        assert np.isnan(out[1]).all()  # nothing known in the row
-        np.testing.assert_array_equal(out[2], d[2])
-        assert np.isfinite(out[0]).all() and out[0, 0] == 5 and out[0, 3] == 9
-        assert np.isnan(d[0, 1])  # input untouched
-        wide = np.full((9, 20), 20.0, np.float32)
-        wide[:, 12:] = 4.0
-        wide[:, 8:12] = np.nan  # hole between a near (20) and a far (4) surface: background is 4
-        np.testing.assert_array_equal(fill_holes(wide)[2:-2, 8:12], 4.0)
-        # a row between two empty rows: the median never sees the empty rows' placeholder
-        lone = np.full((5, 6), np.nan, np.float32)
-        lone[2, 0] = 7.0
-        np.testing.assert_array_equal(fill_holes(lone)[2], 7.0)
-
-    @pytest.mark.parametrize("func", [lambda d: filter_speckles(d, max_size=1, max_diff=1), fill_holes])
-    def test_rejects_wrong_dtype(self, func):
-        with pytest.raises(ValueError, match="`disparity` must be a \\(H, W\\) float32"):
-            func(np.zeros((3, 3)))
-
-
-# --------------------------------------------------------------------------------------------------
 # property tests: a well-formed map or a documented error naming the parameter
 # --------------------------------------------------------------------------------------------------
 _DTYPES = st.sampled_from([np.uint8, np.uint16, np.float32, np.float64, np.int16, np.bool_])
@@ -698,47 +570,3 @@ def test_property_well_formed_or_named_error(case):
     p = dmap.params
     assert ((finite >= p.min_disparity - 1) & (finite <= p.max_disparity + 1)).all()
     assert dmap.validity["valid"] == finite.size
-
-
-@st.composite
-def _disparity_maps(draw):
-    h, w = draw(st.integers(1, 30)), draw(st.integers(1, 30))
-    rng = np.random.default_rng(draw(st.integers(0, 2**16)))
-    scale = draw(st.sampled_from([1.0, 64.0, 5000.0]))
-    d = (rng.normal(0, 1, (h, w)).cumsum(axis=1) * scale / 10).astype(np.float32)
-    d[rng.random((h, w)) < draw(st.sampled_from([0.0, 0.2, 0.9, 1.0]))] = np.nan
-    return d
-
-
-@settings(max_examples=240, deadline=None)
-@given(d=_disparity_maps(), max_size=st.integers(0, 50), max_diff=st.sampled_from([0.0, 0.5, 2.0, 100.0]))
-def test_property_postprocess(d, max_size, max_diff):
-    known = np.isfinite(d)
-    out = filter_speckles(d, max_size=max_size, max_diff=max_diff)
-    kept = np.isfinite(out)
-    assert out.dtype == np.float32 and not (kept & ~known).any()  # only removes
-    np.testing.assert_array_equal(out[kept], d[kept])  # never changes a value
-    if max_size == 0:
-        assert (kept == known).all()
-    filled = fill_holes(d)
-    np.testing.assert_array_equal(filled[known], d[known])
-    rows_with_data = known.any(axis=1)
-    assert np.isfinite(filled[rows_with_data]).all() and np.isnan(filled[~rows_with_data]).all()
-    lo, hi = (np.nanmin(d), np.nanmax(d)) if known.any() else (0, 0)
-    assert ((filled[np.isfinite(filled)] >= lo) & (filled[np.isfinite(filled)] <= hi)).all()
-
-
-_ANY = st.one_of(st.none(), st.booleans(), st.integers(-10**7, 10**7), st.floats(allow_nan=True),
-                 st.text(max_size=3), st.tuples(st.integers(-3, 11), st.integers(-3, 11)))
-
-
-@settings(max_examples=450, deadline=None)
-@given(field=st.sampled_from([f.name for f in dataclasses.fields(SGMParams)]), value=_ANY)
-def test_property_params_value_or_named_error(field, value):
-    try:
-        p = SGMParams(**{field: value})
-    except ValueError as exc:
-        assert f"`{field}`" in str(exc) or "`p2`" in str(exc), str(exc)
-        return
-    assert p.effective_p2 > p.effective_p1 >= 0
-    assert SGMParams(**{**p.to_dict(), "census_window": p.census_window}) == p

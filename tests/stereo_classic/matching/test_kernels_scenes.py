@@ -2,7 +2,7 @@
 OpenCV StereoSGBM MODE_HH run on the same input, and census robustness to a gain/offset change.
 
 Kernel level only (no speckle filter, no hole filling): the public API's own scene tests live in
-test_sgm_accuracy.py. Margins are set from the measured numbers written next to each case.
+test_accuracy.py. Margins are set from the measured numbers written next to each case.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 import pytest
 
-from stereo_classic._sgm_core import sgm_match
+from stereo_classic.matching._kernels.core import sgm_match
 
 
 def _read_pfm(path: Path) -> np.ndarray:

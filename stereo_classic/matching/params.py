@@ -1,6 +1,10 @@
 """Parameters of the semi-global matcher: one frozen, self-checking dataclass.
 
->>> from stereo_classic.params import SGMParams
+The fields that are command-line flags carry their help text in ``dataclasses.field(metadata=...)``:
+``"help"``, and where needed ``"metavar"``, ``"choices"`` and ``"parse"`` (text -> value, raising
+ValueError), so that the flags, the config file and the docs are generated from one place.
+
+>>> from stereo_classic.matching import SGMParams
 >>> params = SGMParams(num_disparities=64, block_size=5)
 >>> params.effective_p1, params.effective_p2
 (20, 80)
@@ -17,6 +21,8 @@ import os
 from dataclasses import dataclass
 from typing import Any
 
+from stereo_classic.matching._kernels import core as kernels
+
 __all__ = [
     "SGMParams",
     "MEMORY_LIMIT_ENV",
@@ -27,6 +33,8 @@ __all__ = [
     "MAX_PENALTY",
     "default_memory_limit",
     "parse_bytes",
+    "parse_census_window",
+    "parse_lr_check",
 ]
 
 #: Environment variable that sets the default memory limit (bytes, or with a K/M/G/T suffix: "4G").
@@ -106,13 +114,33 @@ def default_memory_limit() -> int:
     return physical // 2 if physical else 4 * 1024**3
 
 
-def _kernel_penalty_check(cost: str, block_size: int, census_window: tuple[int, int], p1: int, p2: int) -> None:
-    """The kernels' limit on P2 (their int16 path sums must not overflow); ValueError naming `p2`."""
+def parse_census_window(text: str) -> tuple[int, int]:
+    """A census window written ``9x7`` (or ``9,7``) as (width, height); ValueError otherwise.
+
+    >>> parse_census_window("9x7"), parse_census_window("5,5")
+    ((9, 7), (5, 5))
+    """
+    parts = text.lower().replace(",", "x").split("x")
     try:
-        from stereo_classic._sgm_core import check_penalties
-    except ImportError:  # kernels unavailable: compute_disparity will say so
-        return
-    check_penalties(cost, block_size, census_window, p1, p2)
+        if len(parts) != 2:
+            raise ValueError
+        return int(parts[0]), int(parts[1])
+    except ValueError:
+        raise ValueError(f"expected WIDTHxHEIGHT such as 9x7, got {text!r}") from None
+
+
+def parse_lr_check(text: str) -> float | None:
+    """A left-right tolerance in pixels, or None for ``off`` / ``none`` / ``no``; ValueError otherwise.
+
+    >>> parse_lr_check("1.5"), parse_lr_check("off")
+    (1.5, None)
+    """
+    if text.lower() in ("off", "none", "no"):
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise ValueError(f"expected a number of pixels or 'off', got {text!r}") from None
 
 
 @dataclass(frozen=True)
@@ -177,23 +205,39 @@ class SGMParams:
         None: ``$STEREO_CLASSIC_MEMORY_LIMIT`` or 50 % of physical RAM.
     """
 
-    min_disparity: int = 0
-    num_disparities: int = 64
-    block_size: int = 5
-    p1: int | None = None
-    p2: int | None = None
-    cost: str = "census"
-    census_window: tuple[int, int] = (9, 7)
-    adaptive_p2: bool = False
-    uniqueness: float = 0.0
-    lr_check: float | None = None
-    lr_mode: str = "full"
+    min_disparity: int = dataclasses.field(default=0, metadata={
+        "help": "smallest disparity searched, px (may be negative)", "metavar": "PX"})
+    num_disparities: int = dataclasses.field(default=64, metadata={
+        "help": "number of disparities searched (any positive integer)", "metavar": "N"})
+    block_size: int = dataclasses.field(default=5, metadata={
+        "help": "odd SAD window side, 1..21 (cost sad)", "metavar": "N"})
+    p1: int | None = dataclasses.field(default=None, metadata={
+        "help": "penalty for a 1 px disparity change (default: by cost)", "metavar": "P1"})
+    p2: int | None = dataclasses.field(default=None, metadata={
+        "help": "penalty for larger disparity changes, > p1 (default: by cost)", "metavar": "P2"})
+    cost: str = dataclasses.field(default="census", metadata={
+        "help": "matching cost: census (robust to exposure differences) or sad (the paper's)",
+        "metavar": "census|sad"})
+    census_window: tuple[int, int] = dataclasses.field(default=(9, 7), metadata={
+        "help": "census window, odd width x odd height, at most 64 bits (cost census)", "metavar": "WxH",
+        "parse": parse_census_window})
+    adaptive_p2: bool = dataclasses.field(default=False, metadata={"help": "divide P2 by the intensity gradient"})
+    uniqueness: float = dataclasses.field(default=0.0, metadata={
+        "help": "uniqueness ratio in percent, 0 = off", "metavar": "PCT"})
+    lr_check: float | None = dataclasses.field(default=None, metadata={
+        "help": "largest left-right disparity difference, px, or 'off' (1 for fewer, more reliable pixels)",
+        "metavar": "PX|off", "parse": parse_lr_check})
+    lr_mode: str = dataclasses.field(default="full", metadata={
+        "help": "left-right check: full (strict) or opencv (StereoSGBM's collision check)", "choices": LR_MODES})
     right_view: bool = False
-    subpixel: bool = True
-    speckle_size: int = 100
-    speckle_range: float = 2.0
-    fill_holes: bool = False
-    paths: int = 8
+    subpixel: bool = dataclasses.field(default=True, metadata={"help": "integer disparities only"})
+    speckle_size: int = dataclasses.field(default=100, metadata={
+        "help": "remove regions smaller than this many pixels, 0 = off", "metavar": "PIXELS"})
+    speckle_range: float = dataclasses.field(default=2.0, metadata={
+        "help": "largest disparity step inside one speckle region, px", "metavar": "PX"})
+    fill_holes: bool = dataclasses.field(default=False, metadata={
+        "help": "fill unknown pixels from the background side (dense map, filled values are guesses)"})
+    paths: int = dataclasses.field(default=8, metadata={"help": "aggregation directions", "choices": (4, 8)})
     threads: int | None = None
     memory_limit: int | None = None
 
@@ -240,7 +284,8 @@ class SGMParams:
         if p2 <= p1:
             note = " (None means the default for this cost)" if self.p1 is None or self.p2 is None else ""
             raise ValueError(f"`p2` must be larger than `p1`, got p1={p1} and p2={p2}{note}")
-        _kernel_penalty_check(self.cost, self.block_size, self.census_window, p1, p2)
+        # the kernels' own, tighter limit on P2: their int16 path sums must not overflow
+        kernels.check_penalties(self.cost, self.block_size, self.census_window, p1, p2)
         for field in ("adaptive_p2", "subpixel", "fill_holes", "right_view"):
             value = getattr(self, field)
             if not isinstance(value, bool):

@@ -3,15 +3,15 @@
 Everything here is written for clarity, not speed (pixel or row loops in Python, int64 arithmetic):
 the census transform and both matching costs, one path's recursion for any of the 8 directions,
 and the winner selection (WTA, uniqueness, subpixel, right view, left-right check). Conventions are
-those of ``_sgm_core``: entry ``[y, x, k]`` is disparity ``min_disparity + k``, i.e. the left pixel
-``x`` against the right pixel ``x - min_disparity - k``.
+those of the kernels (``_kernels/core.py``): entry ``[y, x, k]`` is disparity ``min_disparity + k``,
+i.e. the left pixel ``x`` against the right pixel ``x - min_disparity - k``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ._sgm_core import PATH_STEPS, cost_scale
+from stereo_classic.matching._kernels.core import PATH_STEPS, cost_scale
 
 __all__ = ["census_reference", "cost_volume_reference", "path_reference", "sum_reference", "select_reference"]
 
@@ -92,7 +92,7 @@ def cost_volume_reference(left, right, *, cost="census", min_disparity=0, num_di
 
 
 def path_reference(C: np.ndarray, direction: int, p1: int, p2: int, image: np.ndarray | None = None) -> np.ndarray:
-    """L_r for one direction (index into ``_sgm_core.PATH_STEPS``), int64 (H, W, D).
+    """L_r for one direction (index into ``_kernels.core.PATH_STEPS``), int64 (H, W, D).
 
     L(p, d) = C(p, d) + min(L(p-r, d), L(p-r, d-1) + P1, L(p-r, d+1) + P1, min_k L(p-r, k) + P2)
               - min_k L(p-r, k),   and L(p) = C(p) where p - r is outside the image.

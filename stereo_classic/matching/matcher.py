@@ -1,7 +1,7 @@
 """Public stereo matcher: checked input, one conversion to grey, numba SGM, post-processing.
 
 >>> import numpy as np
->>> from stereo_classic import compute_disparity
+>>> from stereo_classic.matching import compute_disparity
 >>> rng = np.random.default_rng(0)
 >>> right = rng.integers(0, 256, (40, 80), dtype=np.uint8)
 >>> left = np.roll(right, 6, axis=1)                  # every pixel moved 6 px: d = x_left - x_right = 6
@@ -18,14 +18,14 @@ import threading
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from types import ModuleType
 from typing import Any
 
 import cv2
 import numpy as np
 
-from stereo_classic.params import SGMParams
-from stereo_classic.postprocess import fill_holes, filter_speckles
+from stereo_classic.matching._kernels import core as kernels
+from stereo_classic.matching.params import SGMParams
+from stereo_classic.matching.postprocess import fill_holes, filter_speckles
 
 __all__ = [
     "compute_disparity",
@@ -53,13 +53,6 @@ class StereoInputError(ValueError):
 
 class MemoryBudgetError(ValueError):
     """The estimated working memory exceeds the limit; raised before anything large is allocated."""
-
-
-def _core() -> ModuleType:
-    """The numba kernels (imported lazily: importing stereo_classic must not compile anything)."""
-    from stereo_classic import _sgm_core
-
-    return _sgm_core
 
 
 # --------------------------------------------------------------------------------------------------
@@ -341,7 +334,7 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
     height, width = int(image_shape[0]), int(image_shape[1])
     pixels = height * width
     # the kernels: sum volume, their outputs (left and right float32 disparity), cost inputs, row buffers
-    core = _core().memory_bytes(height, width, params.num_disparities, paths=params.paths,
+    core = kernels.memory_bytes(height, width, params.num_disparities, paths=params.paths,
                                 lr_check=params.lr_check is not None, cost=params.cost,
                                 block_size=params.block_size)
     conversion = _conversion_bytes((height, width), dtype)
@@ -395,7 +388,7 @@ def _border_mask(shape: tuple[int, int], params: SGMParams) -> np.ndarray:
 
 
 def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None = None,
-           workspace: Any = None, reserved: int = 0) -> DisparityMap:
+           workspace: kernels.Workspace | None = None, reserved: int = 0) -> DisparityMap:
     """``reserved``: bytes a busy call of the same StereoMatcher holds; when > 0 the memory is checked
     on every call, with ``reserved`` added (``memory_checked`` does not apply)."""
     t0 = time.perf_counter()
@@ -412,7 +405,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     gray_left, gray_right = _to_gray_uint8(left_arr, right_arr)
     t1 = time.perf_counter()
 
-    disparity, disparity_right, core_timings = _core().sgm_match(
+    disparity, disparity_right, core_timings = kernels.sgm_match(
         gray_left, gray_right, cost=params.cost, min_disparity=params.min_disparity,
         num_disparities=params.num_disparities, block_size=params.block_size, census_window=params.census_window,
         p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.adaptive_p2,
@@ -500,15 +493,17 @@ class StereoMatcher:
     threads: a call that finds the buffers busy allocates its own, after checking that its estimate
     plus the busy call's fits in the memory limit (``MemoryBudgetError`` otherwise).
 
-    >>> matcher = StereoMatcher(num_disparities=128)        # doctest: +SKIP
-    >>> for left, right in frames:                          # doctest: +SKIP
-    ...     dmap = matcher.compute(left, right)
+    >>> rng = np.random.default_rng(2)
+    >>> frames = [(np.roll(right, 3, axis=1), right) for right in rng.integers(0, 256, (2, 32, 64), np.uint8)]
+    >>> matcher = StereoMatcher(num_disparities=16, subpixel=False)
+    >>> [float(np.nanmedian(matcher.compute(left, right).disparity)) for left, right in frames]
+    [3.0, 3.0]
     """
 
     def __init__(self, params: SGMParams | None = None, **overrides: Any) -> None:
         self._params = _resolve_params(params, overrides)
         self._memory_checked: set[tuple[tuple[int, ...], np.dtype]] = set()
-        self._workspace: Any = None
+        self._workspace: kernels.Workspace | None = None
         self._lock = threading.Lock()
         self._busy_bytes = 0  # estimate of the call holding the lock (the buffers and its temporaries)
 
@@ -525,7 +520,7 @@ class StereoMatcher:
         try:
             self._busy_bytes = self._estimate(left)
             if self._workspace is None:
-                self._workspace = _core().Workspace()
+                self._workspace = kernels.Workspace()
             return _match(left, right, self._params, self._memory_checked, self._workspace)
         finally:
             self._busy_bytes = 0

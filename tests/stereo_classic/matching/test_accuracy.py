@@ -25,7 +25,7 @@ import numpy as np
 import pytest
 
 from stereo_classic.datasets import load_scene
-from stereo_classic.matcher import compute_disparity
+from stereo_classic.matching import compute_disparity
 
 SCENES = {
     "Motorcycle": "middlebury2014/trainingQ/Motorcycle",

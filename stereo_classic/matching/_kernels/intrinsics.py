@@ -3,7 +3,7 @@
 numba promotes ``int16 + int16`` to int64, which makes LLVM vectorise the aggregation loops 4x
 narrower than it could (measured: 1.7 G path updates/s with plain int16 code, 6.4 G/s with these).
 These intrinsics keep the arithmetic in 16 bits. They wrap around on overflow like C; the callers
-keep every value inside int16 by construction (see ``_sgm_core.check_penalties``).
+keep every value inside int16 by construction (see ``core.check_penalties``).
 """
 
 from __future__ import annotations

@@ -1,18 +1,21 @@
 """The numba SGM kernels against the slow numpy reference, exactly, plus synthetic ground truth.
 
 Small random images keep the pure-Python reference fast. Real-scene checks live in
-test_sgm_core_scenes.py.
+test_kernels_scenes.py.
 """
 
 from __future__ import annotations
+
+import ast
+from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from stereo_classic import _sgm_core as core
-from stereo_classic import _sgm_reference as ref
+from stereo_classic.matching import reference as ref
+from stereo_classic.matching._kernels import core
 
 P1, P2 = 10, 120
 
@@ -383,3 +386,19 @@ def test_random_shapes_give_well_formed_results(h, w, dmin, D, cost, paths, seed
         S = core.sum_volume(left, right, cost=cost, min_disparity=dmin, num_disparities=D, **p)
         want, _ = ref.select_reference(S, dmin, uniqueness=0.0, lr_check=None)
         np.testing.assert_array_equal(d, want)
+
+
+def test_kernels_import_nothing_else_from_the_project():
+    """The kernels stand alone: params and matcher import them, never the other way round."""
+    for path in sorted(Path(core.__file__).parent.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom):
+                assert node.level == 0, f"{path.name}: relative import"
+                names = [node.module or ""]
+            elif isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            else:
+                continue
+            for name in names:
+                ours = name.split(".")[0] in ("stereo_classic", "calib", "detectors", "benchmarks")
+                assert not ours or name.startswith("stereo_classic.matching._kernels"), f"{path.name} imports {name}"

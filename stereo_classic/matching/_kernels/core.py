@@ -1,6 +1,6 @@
 """Fused two-thread semi-global matching kernels (numba).
 
-Design (see ``.notes/readme_sgm_core.md``):
+Design:
 
 * One int16 sum volume ``S`` (H, W, D), disparity innermost. No stored cost volume and no
   per-path volumes: costs are recomputed per pixel (census: popcount of a xor; SAD: running box
@@ -21,7 +21,7 @@ Design (see ``.notes/readme_sgm_core.md``):
   temporaries, about 1 MB per thread at 1242 x 375 x 128 (Zen 4: 1 MB L2 per core).
 * In phase 2 the complete sums go to a D-vector scratch, not back to ``S`` (only the test entry
   ``sum_volume`` keeps them).
-* Arithmetic stays in int16 through LLVM intrinsics (``_sgm_intrinsics``); flat arrays indexed
+* Arithmetic stays in int16 through LLVM intrinsics (``intrinsics``); flat arrays indexed
   with unsigned offsets (no wraparound code, plain vector loads); per-pixel loops written out in
   ``sgm_pass`` (separate numba functions are not inlined by LLVM, and inlining at numba-IR level
   adds reference counting per pixel).
@@ -42,11 +42,17 @@ import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
-from ._sgm_cost import (
+from stereo_classic.matching._kernels.cost import (
+    CENSUS,
+    SAD,
     SAD_PIXEL_MAX,
+    CostImages,
+    CostSettings,
     NoAliasCompiler,
     census_bits,
     census_transform,
@@ -56,9 +62,10 @@ from ._sgm_cost import (
     sad_hsum_init,
     sad_prefilter,
 )
-from ._sgm_intrinsics import add16, and16, min16, popxor16, sub16
+from stereo_classic.matching._kernels.intrinsics import add16, and16, min16, popxor16, sub16
 
 __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume", "check_penalties", "cost_scale",
+           "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
            "ALL_PATHS", "FOUR_PATHS", "PATH_NAMES", "PATH_STEPS"]
 
 #: Bit i of a path mask selects direction PATH_NAMES[i]. Bits 0-3 run in the forward pass,
@@ -70,7 +77,148 @@ FOUR_PATHS = 0x33  # left, top, right, bottom
 
 _INT16_MAX = 32767
 _SENTINEL = 16383  # padding at both disparity ends of every path vector: "no neighbour"
-_KIND = {"census": 0, "sad": 1}
+_KIND = {"census": CENSUS, "sad": SAD}
+
+
+# ----------------------------------------------------------------------------------------------
+# the arguments of sgm_pass, grouped (numba takes each NamedTuple as one argument and passes its
+# arrays on to LLVM as separate, non-aliasing pointers: the compiled loops are those of plain arguments)
+
+
+class PassSettings(NamedTuple):
+    """Aggregation and selection settings, the same for every pass of one match.
+
+    Attributes
+    ----------
+    p1, p2 : int
+        Penalties in the units of the (scaled) cost.
+    adaptive_p2 : bool
+        P2 / (1 + |I(p) - I(p - r)|), never below P1.
+    path_mask : int
+        Directions to aggregate (bit i: ``PATH_NAMES[i]``).
+    uniqueness : float
+        Fraction 0..1 (0 = off).
+    lr_threshold : float
+        Left-right check threshold, pixels; negative = no check.
+    lr_claims : bool
+        The check is OpenCV's collision check (``lr_mode="opencv"``).
+    subpixel : bool
+        Parabola subpixel refinement.
+    right_view : bool
+        Compute the right view's winner (for the "full" check or ``return_right``).
+    """
+
+    p1: int
+    p2: int
+    adaptive_p2: bool
+    path_mask: int
+    uniqueness: float
+    lr_threshold: float
+    lr_claims: bool
+    subpixel: bool
+    right_view: bool
+
+
+class PassPlan(NamedTuple):
+    """The rows one call of ``sgm_pass`` covers and what it does with the sums.
+
+    Attributes
+    ----------
+    y_first : int
+        First row (top row of the range for the forward pass, bottom row for the backward pass).
+    n_rows : int
+        Number of rows.
+    step : int
+        +1: forward pass (rows down, x to the right); -1: backward pass.
+    accumulate : bool
+        Add this pass's paths to the stored partial sums (phase 2) instead of storing them (phase 1).
+    select : bool
+        Resolve every pixel once its sum is complete (winner, uniqueness, subpixel, LR check).
+    init_cost : bool
+        (SAD) build the column sums from scratch at the first row.
+    keep_sums : bool
+        Write the complete sums back to the volume (test entry ``sum_volume``).
+    """
+
+    y_first: int
+    n_rows: int
+    step: int
+    accumulate: bool
+    select: bool
+    init_cost: bool
+    keep_sums: bool
+
+
+class ThreadBuffers(NamedTuple):
+    """Row buffers of one thread (int16 unless said otherwise; E = D + 2).
+
+    Attributes
+    ----------
+    path_h, path_v, path_a, path_b : (slots * E,) int16
+        Skewed path-vector slots of the horizontal, vertical and two diagonal directions.
+    min_h, min_v, min_a, min_b : (slots,) int16
+        Minimum of each path vector.
+    cost : (D,) int16
+        Cost of the current pixel.
+    sums : (D,) int16
+        Complete sum of the current pixel (phase 2, when the volume does not keep it).
+    colsum : ((W + 2h) * D,) int16
+        SAD column sums ((1,) placeholder for census).
+    hsum : (D,) int32
+        SAD window sum of the current pixel.
+    rrev : (4 * (W + D - 1),) uint16
+        Census code quarters of the current right row, reversed ((1,) for SAD).
+    srev, irev : (W + 2h + D - 1,) int16
+        SAD channels of a right row, reversed ((1,) for census).
+    right_sums, right_k : (W + D - 1,) int16
+        Right view: best sum and its disparity index per right pixel.
+    best : (W,) int64
+        Winning disparity index per pixel of the row (-1: none).
+    counts : (2,) int64
+        Pixels rejected by uniqueness and by the LR check.
+    claim_cost, claim_k : (W,) int16
+        OpenCV-style LR check: cost and disparity index of each right pixel's claim.
+    """
+
+    path_h: np.ndarray
+    path_v: np.ndarray
+    path_a: np.ndarray
+    path_b: np.ndarray
+    min_h: np.ndarray
+    min_v: np.ndarray
+    min_a: np.ndarray
+    min_b: np.ndarray
+    cost: np.ndarray
+    sums: np.ndarray
+    colsum: np.ndarray
+    hsum: np.ndarray
+    rrev: np.ndarray
+    srev: np.ndarray
+    irev: np.ndarray
+    right_sums: np.ndarray
+    right_k: np.ndarray
+    best: np.ndarray
+    counts: np.ndarray
+    claim_cost: np.ndarray
+    claim_k: np.ndarray
+
+
+class PassOutputs(NamedTuple):
+    """What the passes write.
+
+    Attributes
+    ----------
+    sums : (H * W * D,) int16
+        The sum volume, flat, disparity innermost.
+    disparity : (H, W) float32
+        Left view, pixels, NaN where unknown.
+    disparity_right : (H, W) float32
+        Right view (written when ``PassSettings.right_view``).
+    """
+
+    sums: np.ndarray
+    disparity: np.ndarray
+    disparity_right: np.ndarray
 
 
 # ----------------------------------------------------------------------------------------------
@@ -127,18 +275,28 @@ def _lr(P, rb, c, m, q, p1, k):  # pragma: no cover - numba
 
 
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
-             Sf, y_first, nrows, step, accumulate, select, init_cost, keep_sums,
-             PH, PV, PA, PB, MH, MV, MA, MB, C, Ssum, colsum, hsum, rrev, srev, irev,
-             dmin, h, shift, cmax, cinv, p1, p2, adaptive, path_mask,
-             uniq, lr_thr, lr_claims, subpix, right_view, disp, dispR, rv, rd, best, counts, ccost,
-             ck):  # pragma: no cover - numba
-    """Run the forward (step=+1) or backward (step=-1) 4-path pass over nrows rows from y_first.
+def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - numba
+    """Run one 4-path pass: forward (``plan.step`` +1) or backward (-1), over ``plan.n_rows`` rows.
 
-    Sf: the (H * W * D,) int16 sum volume. accumulate: add to Sf instead of storing (the
-    complete sums go back to Sf only when keep_sums, else to the scratch vector Ssum); select:
-    resolve every pixel as soon as its sum is complete, and the row's right view and LR check at
-    the row end; init_cost: (SAD) build the column sums from scratch at the first row.
+    Parameters
+    ----------
+    images : CostImages
+        The left image and what the cost reads (census code quarters or SAD channels).
+    cost : CostSettings
+        Cost kind, disparity offset, SAD window and scaling, invalid cost.
+    settings : PassSettings
+        Penalties, path mask and the selection settings, the same for every pass of one match.
+    plan : PassPlan
+        Rows, direction, and what this pass does with the sums (store, accumulate, select).
+    bufs : ThreadBuffers
+        This thread's row buffers (never shared with a concurrent pass).
+    out : PassOutputs
+        The flat (H * W * D,) int16 sum volume and the (H, W) float32 disparity maps.
+
+    ``plan.accumulate``: add to the sum volume instead of storing (the complete sums go back to it
+    only when ``plan.keep_sums``, else to the scratch vector ``bufs.sums``); ``plan.select``: resolve
+    every pixel as soon as its sum is complete, and the row's right view and LR check at the row end;
+    ``plan.init_cost``: (SAD) build the column sums from scratch at the first row.
 
     Path vectors: slots of E = D + 2 int16 (sentinels at both ends), minima in MH/MV/MA/MB. In pass
     coordinates (i = position along the row in processing order, v = rows processed since the
@@ -149,6 +307,60 @@ def sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, limg,
     hold zeros = the path start. Horizontal: two slots, alternating.
     C: (D,) cost of the current pixel.
     """
+    # Short local names for the loops below (the arithmetic reads like the paper's recursion).
+    limg = images.left
+    lcode = images.left_code
+    rcode = images.right_code
+    lsob = images.left_sobel
+    lint = images.left_intensity
+    rsob = images.right_sobel
+    rint = images.right_intensity
+    kind = cost.kind
+    dmin = cost.min_disparity
+    h = cost.half_block
+    shift = cost.shift
+    cmax = cost.cmax
+    cinv = cost.invalid_cost
+    p1 = settings.p1
+    p2 = settings.p2
+    adaptive = settings.adaptive_p2
+    path_mask = settings.path_mask
+    uniq = settings.uniqueness
+    lr_thr = settings.lr_threshold
+    lr_claims = settings.lr_claims
+    subpix = settings.subpixel
+    right_view = settings.right_view
+    y_first = plan.y_first
+    nrows = plan.n_rows
+    step = plan.step
+    accumulate = plan.accumulate
+    select = plan.select
+    init_cost = plan.init_cost
+    keep_sums = plan.keep_sums
+    PH = bufs.path_h
+    PV = bufs.path_v
+    PA = bufs.path_a
+    PB = bufs.path_b
+    MH = bufs.min_h
+    MV = bufs.min_v
+    MA = bufs.min_a
+    MB = bufs.min_b
+    C = bufs.cost
+    Ssum = bufs.sums
+    colsum = bufs.colsum
+    hsum = bufs.hsum
+    rrev = bufs.rrev
+    srev = bufs.srev
+    irev = bufs.irev
+    rv = bufs.right_sums
+    rd = bufs.right_k
+    best = bufs.best
+    counts = bufs.counts
+    ccost = bufs.claim_cost
+    ck = bufs.claim_k
+    Sf = out.sums
+    disp = out.disparity
+    dispR = out.disparity_right
     H = limg.shape[0]
     W = limg.shape[1]
     D = C.shape[0]
@@ -486,17 +698,16 @@ def _pool() -> ThreadPoolExecutor:
         return _POOL
 
 
-def _thread_buffers(H: int, W: int, D: int, kind: int, h: int) -> dict[str, np.ndarray]:
+def _thread_buffers(H: int, W: int, D: int, kind: int, h: int) -> ThreadBuffers:
     E = D + 2
-    slots = {"H": 2, "V": W + H + 1, "A": W + 2 * H + 1, "B": W + 2}
-    bufs: dict[str, np.ndarray] = {}
-    for name, n in slots.items():
+    paths, minima = [], []
+    for n in (2, W + H + 1, W + 2 * H + 1, W + 2):  # slots of the H, V, A and B directions
         P = np.zeros((n, E), np.int16)
         P[:, 0] = _SENTINEL
         P[:, E - 1] = _SENTINEL
-        bufs["P" + name] = P.reshape(-1)
-        bufs["M" + name] = np.zeros(n, np.int16)
-    if kind == 1:
+        paths.append(P.reshape(-1))
+        minima.append(np.zeros(n, np.int16))
+    if kind == SAD:
         colsum = np.zeros((W + 2 * h) * D, np.int16)
         rrev = np.zeros(1, np.uint16)
         srev = np.zeros(W + 2 * h + D - 1, np.int16)
@@ -506,22 +717,20 @@ def _thread_buffers(H: int, W: int, D: int, kind: int, h: int) -> dict[str, np.n
         rrev = np.zeros(4 * (W + D - 1), np.uint16)
         srev = np.zeros(1, np.int16)
         irev = np.zeros(1, np.int16)
-    bufs.update({
-        "C": np.zeros(D, np.int16), "Ssum": np.zeros(D, np.int16), "colsum": colsum, "hsum": np.zeros(D, np.int32),
-        "rrev": rrev, "srev": srev, "irev": irev,
-        "rv": np.empty(W + D - 1, np.int16), "rd": np.empty(W + D - 1, np.int16),
-        "best": np.empty(W, np.int64), "counts": np.zeros(2, np.int64),
-        "ccost": np.empty(W, np.int16), "ck": np.empty(W, np.int16),
-    })
-    return bufs
+    return ThreadBuffers(
+        *paths, *minima, cost=np.zeros(D, np.int16), sums=np.zeros(D, np.int16), colsum=colsum,
+        hsum=np.zeros(D, np.int32), rrev=rrev, srev=srev, irev=irev,
+        right_sums=np.empty(W + D - 1, np.int16), right_k=np.empty(W + D - 1, np.int16),
+        best=np.empty(W, np.int64), counts=np.zeros(2, np.int64),
+        claim_cost=np.empty(W, np.int16), claim_k=np.empty(W, np.int16))
 
 
-def _reset_buffers(b: dict[str, np.ndarray], D: int) -> None:
+def _reset_buffers(b: ThreadBuffers, D: int) -> None:
     E = D + 2
-    for name in "HVAB":
-        b["P" + name].reshape(-1, E)[:, 1:E - 1] = 0
-        b["M" + name][:] = 0
-    b["counts"][:] = 0
+    for P, M in ((b.path_h, b.min_h), (b.path_v, b.min_v), (b.path_a, b.min_a), (b.path_b, b.min_b)):
+        P.reshape(-1, E)[:, 1:E - 1] = 0
+        M[:] = 0
+    b.counts[:] = 0
 
 
 class Workspace:
@@ -531,7 +740,7 @@ class Workspace:
 
     def __init__(self) -> None:
         self.S: np.ndarray | None = None
-        self.bufs: list[dict[str, np.ndarray]] | None = None
+        self.bufs: list[ThreadBuffers] | None = None
         self._key: tuple | None = None
 
     def fits(self, *key) -> bool:
@@ -548,7 +757,7 @@ class Workspace:
     def nbytes(self) -> int:
         if self.S is None:
             return 0
-        return self.S.nbytes + sum(a.nbytes for b in self.bufs for a in b.values())
+        return self.S.nbytes + sum(a.nbytes for b in self.bufs for a in b)
 
 
 def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 8, lr_check: bool = True,
@@ -575,7 +784,7 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     return total + 2 * per_thread
 
 
-def _prepare_cost(left, right, cost, census_window, threads=1):
+def _prepare_cost(left, right, cost, census_window, threads=1) -> CostImages:
     if cost == "census":
         if threads >= 2:
             fut = _pool().submit(census_transform, right, census_window)
@@ -589,10 +798,10 @@ def _prepare_cost(left, right, cost, census_window, threads=1):
         lcode = lcode.view(np.uint16).reshape(H, W, 4)
         rcode = rcode.view(np.uint16).reshape(H, W, 4)
         lsob, lint, rsob, rint = (np.zeros((1, 1), np.int16) for _ in range(4))  # distinct: noalias
-        return lcode, rcode, lsob, lint, rsob, rint
+        return CostImages(left, lcode, rcode, lsob, lint, rsob, rint)
     lsob, lint = sad_prefilter(left)
     rsob, rint = sad_prefilter(right)
-    return np.zeros((1, 1, 4), np.uint16), np.zeros((1, 1, 4), np.uint16), lsob, lint, rsob, rint
+    return CostImages(left, np.zeros((1, 1, 4), np.uint16), np.zeros((1, 1, 4), np.uint16), lsob, lint, rsob, rint)
 
 
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
@@ -608,11 +817,12 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     h = block_size // 2 if kind == 1 else 0
     shift, cmax = cost_scale(cost, block_size, census_window, int(p2))
     p1s, p2s = int(p1) >> shift, int(p2) >> shift
-    cinv = cmax + 2 * p2s + 1
+    cost_settings = CostSettings(kind=kind, min_disparity=dmin, half_block=h, shift=shift, cmax=cmax,
+                                 invalid_cost=cmax + 2 * p2s + 1)
     timings = {}
 
     t0 = time.perf_counter()
-    lcode, rcode, lsob, lint, rsob, rint = _prepare_cost(left, right, cost, census_window, threads)
+    images = _prepare_cost(left, right, cost, census_window, threads)
     t1 = time.perf_counter()
     timings["cost"] = (t1 - t0) * 1e3
 
@@ -632,10 +842,13 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
         raise ValueError(f"`lr_mode` must be 'full' or 'opencv', got {lr_mode!r}")
     lr_claims = lr_check is not None and lr_mode == "opencv"
     right_view = bool(return_right) or (lr_check is not None and not lr_claims)
+    settings = PassSettings(p1=p1s, p2=p2s, adaptive_p2=bool(adaptive_p2), path_mask=int(path_mask),
+                            uniqueness=float(uniqueness), lr_threshold=lr_thr, lr_claims=bool(lr_claims),
+                            subpixel=bool(subpixel), right_view=bool(right_view))
+    out = PassOutputs(sums=S.reshape(-1), disparity=disp, disparity_right=dispR)
     mid = H // 2
 
     def job(t, phase):
-        b = bufs[t]
         if t == 0:  # forward: top half, then bottom half
             y_first, nrows, step = (0, mid, 1) if phase == 0 else (mid, H - mid, 1)
             fresh = phase == 0 or mid == 0
@@ -644,14 +857,9 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
             fresh = phase == 0 or H - mid == 0
         if nrows == 0:
             return
-        sgm_pass(kind, lcode, rcode, lsob, lint, rsob, rint, left,
-                 S.reshape(-1), y_first, nrows, step, phase == 1, select and phase == 1, fresh, keep_sums,
-                 b["PH"], b["PV"], b["PA"], b["PB"], b["MH"], b["MV"], b["MA"], b["MB"], b["C"], b["Ssum"],
-                 b["colsum"], b["hsum"], b["rrev"], b["srev"], b["irev"],
-                 dmin, h, shift, cmax, cinv, p1s, p2s, bool(adaptive_p2), int(path_mask),
-                 float(uniqueness), lr_thr, lr_claims, bool(subpixel), right_view, disp, dispR,
-                 b["rv"], b["rd"], b["best"],
-                 b["counts"], b["ccost"], b["ck"])
+        plan = PassPlan(y_first=y_first, n_rows=nrows, step=step, accumulate=phase == 1,
+                        select=bool(select) and phase == 1, init_cost=bool(fresh), keep_sums=bool(keep_sums))
+        sgm_pass(images, cost_settings, settings, plan, bufs[t], out)
 
     for phase in (0, 1):
         if threads >= 2:
@@ -664,8 +872,8 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     t2 = time.perf_counter()
     timings["aggregate"] = (t2 - t1) * 1e3
     timings["select"] = 0.0  # fused into the second phase of "aggregate"
-    timings["n_failed_uniqueness"] = int(sum(int(b["counts"][0]) for b in bufs))
-    timings["n_failed_lr"] = int(sum(int(b["counts"][1]) for b in bufs))
+    timings["n_failed_uniqueness"] = int(sum(int(b.counts[0]) for b in bufs))
+    timings["n_failed_lr"] = int(sum(int(b.counts[1]) for b in bufs))
     return disp, (dispR if right_view else None), S, timings
 
 
@@ -779,13 +987,15 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
     H, W = left.shape
     D = int(num_disparities)
     shift, cmax = cost_scale(cost, block_size, census_window, int(p2))
-    cinv = cmax + 2 * (int(p2) >> shift) + 1
-    h = block_size // 2 if kind == 1 else 0
-    lcode, rcode, lsob, lint, rsob, rint = _prepare_cost(left, right, cost, census_window)
-    # the volume kernel takes the whole 64-bit codes (one popcount per disparity)
-    lcode = np.ascontiguousarray(lcode).reshape(lcode.shape[0], -1).view(np.uint64)
-    rcode = np.ascontiguousarray(rcode).reshape(rcode.shape[0], -1).view(np.uint64)
+    settings = CostSettings(kind=kind, min_disparity=int(min_disparity),
+                            half_block=block_size // 2 if kind == SAD else 0, shift=shift, cmax=cmax,
+                            invalid_cost=cmax + 2 * (int(p2) >> shift) + 1)
+    images = _prepare_cost(left, right, cost, census_window)
+
+    def whole(code: np.ndarray) -> np.ndarray:  # the volume kernel takes 64-bit codes (one popcount each)
+        return np.ascontiguousarray(code).reshape(code.shape[0], -1).view(np.uint64)
+
+    images = images._replace(left_code=whole(images.left_code), right_code=whole(images.right_code))
     out = np.empty((H, W, D), np.int16)
-    cost_volume_kernel(kind, lcode, rcode, lsob, lint, rsob, rint, int(min_disparity), h, shift, cmax,
-                       np.int16(cinv), out)
+    cost_volume_kernel(images, settings, out)
     return out
