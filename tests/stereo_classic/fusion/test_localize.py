@@ -1,25 +1,17 @@
-"""Tests for stereo_classic.fusion: localize, ransac_1d, LocalizedObjects, direction_phrase."""
+"""Tests for stereo_classic.fusion.localize: accuracy on planted objects, statuses, seeds, error paths."""
 
 from __future__ import annotations
 
 import json
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from stereo_classic.fusion import (
-    STATUSES,
-    FusionInputError,
-    LocalizedObjects,
-    check_options,
-    direction_phrase,
-    localize,
-    ransac_1d,
-    sparse_depth_reference,
-)
+from stereo_classic.fusion import STATUSES, FusionInputError, LocalizedObjects, localize
 from tests.helpers.scenes import disparity_of, make_rig, planted_scene
 
 
@@ -179,23 +171,7 @@ def test_empty_detections():
     assert len(LocalizedObjects.empty()) == 0
 
 
-# --- shapes / dtypes / selection ---------------------------------------------------------------------
-
-def test_result_shapes_dtypes_and_selection():
-    rig = make_rig(40, 30, focal_px=500.0, baseline_m=0.1)
-    d = np.full((30, 40), 10.0, np.float32)
-    objs = localize(np.array([[0, 0, 20, 20], [50, 50, 60, 60], [10, 10, 40, 30]]), d, rig)
-    assert objs.xyz.shape == (3, 3) and objs.xyxy.dtype == np.float32 and objs.inliers.dtype == np.int64
-    assert objs.distance_m.dtype == np.float64 and objs.confidence.dtype == np.float32
-    assert objs.ok.tolist() == [True, False, True]
-    sub = objs[objs.ok]
-    assert len(sub) == 2 and sub.status == ("ok", "ok")
-    assert objs[1].status == ("empty_box",)
-    with pytest.raises(FusionInputError, match="status"):
-        LocalizedObjects(**{**objs.__dict__, "status": ("ok", "ok", "bogus")})
-    with pytest.raises(FusionInputError, match="xyz"):
-        LocalizedObjects(**{**objs.__dict__, "xyz": np.zeros((2, 3))})
-
+# --- dtypes --------------------------------------------------------------------------------------------
 
 def test_integer_disparity_is_accepted():
     rig = make_rig(20, 20, focal_px=100.0, baseline_m=1.0)
@@ -246,87 +222,33 @@ def test_bad_inputs_name_the_parameter(dets, disp, match):
 def test_bad_rig():
     with pytest.raises(FusionInputError, match="rig"):
         localize(np.zeros((0, 4)), np.ones((10, 10)), object())
-    rig = make_rig(10, 10)
+    rig = _stand_in(make_rig(10, 10))
     rig.baseline_m = 0.0
     with pytest.raises(FusionInputError, match="baseline_m"):
         localize(np.zeros((0, 4)), np.ones((10, 10)), rig)
 
 
-# --- ransac_1d against a brute-force reference -------------------------------------------------------
-
-def _brute_force_best_count(values, tol):
-    return max(int(((values >= h - tol) & (values <= h + tol)).sum()) for h in values)
-
-
-@settings(max_examples=300, deadline=None)
-@given(st.lists(st.floats(-100, 100, allow_nan=False), min_size=1, max_size=60),
-       st.floats(0.01, 20))
-def test_ransac_1d_finds_the_largest_consistent_set(values, tol):
-    v = np.array(values)
-    centre, inl = ransac_1d(v, tol)
-    assert inl.shape == v.shape and inl.dtype == bool
-    assert inl.sum() >= _brute_force_best_count(v, tol)  # refinement never loses support
-    assert np.all((v[inl] >= centre - tol) & (v[inl] <= centre + tol))
+def _stand_in(rig, **changes):
+    """A plain namespace with the attributes localize reads from a rig (a RectifiedRig stand-in)."""
+    attrs = dict(focal_px=rig.focal_px, baseline_m=rig.baseline_m, doffs=rig.doffs, cx_left=rig.cx_left, cy=rig.cy,
+                 image_size=rig.image_size)
+    return SimpleNamespace(**{**attrs, **changes})
 
 
-def test_ransac_1d_edge_cases():
-    c, m = ransac_1d(np.zeros(0), 1.0)
-    assert math.isnan(c) and m.shape == (0,)
-    with pytest.raises(FusionInputError, match="tolerance"):
-        ransac_1d(np.ones(3), -1.0)
-    with pytest.raises(FusionInputError, match="finite"):
-        ransac_1d(np.array([1.0, np.inf]), 1.0)
-
-
-def test_check_options_normalises_and_names_the_bad_option(monkeypatch):
-    opts = check_options(box_shrink=0, depth_range=[1, 20], tolerance_px=np.float32(0.5), max_iterations=np.int64(8))
-    assert opts["box_shrink"] == 0.0 and isinstance(opts["box_shrink"], float)
-    assert opts["depth_range"] == (1.0, 20.0) and opts["tolerance_px"] == 0.5 and opts["max_iterations"] == 8
-    assert opts == {**check_options(), "box_shrink": 0.0, "depth_range": (1.0, 20.0), "tolerance_px": 0.5,
-                    "max_iterations": 8}
-    for kwargs, needle in [({"method": "mean"}, "`method`"), ({"box_shrink": 1.0}, "`box_shrink`"),
-                           ({"depth_range": (5, 1)}, "`depth_range`"), ({"min_pixels": 0}, "`min_pixels`"),
-                           ({"tolerance_px": 0}, "`tolerance_px`"), ({"near_support": 0}, "`near_support`"),
-                           ({"centre_sigma": -1}, "`centre_sigma`"), ({"grow_density": 2}, "`grow_density`"),
-                           ({"max_clusters": 0}, "`max_clusters`"), ({"max_samples": 1.5}, "`max_samples`")]:
-        with pytest.raises(FusionInputError, match=needle):
-            check_options(**kwargs)
-        with pytest.raises(FusionInputError, match=needle):  # localize checks through the same function
-            localize(np.zeros((0, 4)), np.zeros((2, 2), np.float32), make_rig(2, 2), **kwargs)
-    # the pipeline and the CLI check their fusion options with it, not with a dummy localize call
-    from stereo_classic import pipeline
-
-    calls = []
-    monkeypatch.setattr(pipeline, "check_options", lambda **kw: calls.append(kw) or {})
-    pipeline.Localizer(make_rig(8, 8), None, {"num_disparities": 16}, box_shrink=0.3)
-    assert len(calls) == 1 and calls[0]["box_shrink"] == 0.3
-
-
-@pytest.mark.parametrize("kwargs, needle", [
-    ({"max_iterations": 0}, "`max_iterations`"),
-    ({"max_iterations": -3}, "`max_iterations`"),
-    ({"max_iterations": 2.5}, "`max_iterations`"),
-    ({"max_iterations": True}, "`max_iterations`"),
-    ({"tolerance": "1"}, "`tolerance`"),
-    ({"tolerance": None}, "`tolerance`"),
-    ({"tolerance": [1.0]}, "`tolerance`"),
-    ({"tolerance": np.nan}, "`tolerance`"),
-    ({"tolerance": True}, "`tolerance`"),
-])
-def test_ransac_1d_checks_its_parameters(kwargs, needle):
-    # both on an empty and on a non-empty input: the check comes before any work
-    for values in (np.zeros(0), np.array([1.0, 1.1, 5.0])):
-        call = {"tolerance": 1.0, **kwargs}
-        with pytest.raises(FusionInputError, match=needle):
-            ransac_1d(values, call.pop("tolerance"), **call)
-
-
-def test_direction_phrase():
-    assert direction_phrase([0.0, 0.0, 2.0]) == "ahead"
-    assert direction_phrase([-0.5, 0.0, 3.0]) == "slightly left"
-    assert direction_phrase([0.5, 0.0, 3.0]) == "slightly right"
-    assert direction_phrase([3.0, 0.0, 3.0]) == "right"
-    assert direction_phrase([np.nan, 0.0, 3.0]) == ""
+def test_any_rig_like_object_gives_the_same_result_as_the_rectified_rig():
+    """`rig` is a calib.RectifiedRig or anything with its attributes; image_size is then optional."""
+    rng = np.random.default_rng(8)
+    _, _, gt, rig = planted_scene(rig=make_rig(240, 160, doffs=7.0))
+    d = _noisy(gt, rng)
+    box = np.array([[80, 50, 160, 110], [0, 0, 240, 160]])
+    ref = localize(box, d, rig, rng=2)
+    for other in (_stand_in(rig), SimpleNamespace(**{k: v for k, v in vars(_stand_in(rig)).items()
+                                                     if k != "image_size"})):
+        got = localize(box, d, other, rng=2)
+        np.testing.assert_array_equal(got.xyz, ref.xyz)
+        assert got.status == ref.status == ("ok", "ok")
+    with pytest.raises(FusionInputError, match="image_size"):
+        localize(box, d, _stand_in(rig, image_size=(100, 100)))
 
 
 # --- property test: any input gives a well-formed result or the documented error ------------------------
@@ -388,34 +310,6 @@ def test_property_well_formed_result(case):
         else:
             assert math.isnan(objs.distance_m[i])
     json.dumps(objs.to_json(), allow_nan=False)
-
-
-# --- the LiDAR reference itself ----------------------------------------------------------------------
-
-def test_sparse_depth_reference_picks_the_nearest_dense_cluster():
-    rng = np.random.default_rng(7)
-    depth = np.zeros((100, 200))
-    sample = rng.random((100, 200)) < 0.1  # sparse like projected LiDAR
-    scene = np.full((100, 200), 30.0)                   # background wall
-    scene[20:80, 50:150] = 10.0 + 0.02 * rng.standard_normal((60, 100))  # the object
-    scene[20:80, 50:58] = 4.0                           # a thin occluder at the box edge (< 20 %)
-    depth[sample] = scene[sample]
-    depth[3, 3] = 2.0                                   # a stray point outside the box
-    ref = sparse_depth_reference(depth, [[40, 10, 160, 90], [0, 0, 10, 10], [170, 0, 200, 20]])
-    assert ref[0] == pytest.approx(10.0, abs=0.02)
-    assert math.isnan(ref[1])                           # only one point there: no dense cluster (min 5)
-    assert ref[2] == pytest.approx(30.0)                # only the wall
-
-
-def test_sparse_depth_reference_occluder_that_is_dense_wins_and_bad_input():
-    depth = np.zeros((50, 50))
-    depth[::2, ::2] = 20.0
-    depth[::2, 10:26:2] = 5.0  # a large near object: dense, nearest
-    assert sparse_depth_reference(depth, [[0, 0, 50, 50]], box_shrink=0.0)[0] == 5.0
-    with pytest.raises(FusionInputError, match="sparse_depth"):
-        sparse_depth_reference(np.zeros(5), [[0, 0, 1, 1]])
-    with pytest.raises(FusionInputError, match="box_shrink"):
-        sparse_depth_reference(depth, [[0, 0, 1, 1]], box_shrink=1.5)
 
 
 def test_grow_density_merges_a_slanted_surface():

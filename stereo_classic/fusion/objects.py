@@ -1,0 +1,186 @@
+"""The fusion's result: one row per detected object with its distance, 3D position and a status.
+
+``LocalizedObjects`` is checked when built, filtered with a boolean mask (``objs[objs.ok]``) and written
+as JSON rows or a short table; ``direction_phrase`` says where a point is for a person ("slightly left").
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from stereo_classic.fusion.params import METHODS, FusionInputError
+
+__all__ = ["LocalizedObjects", "STATUSES", "direction_phrase"]
+
+#: Every value ``LocalizedObjects.status`` can take.
+STATUSES: tuple[str, ...] = ("ok", "empty_box", "too_few_depth_pixels", "out_of_range", "no_consensus")
+
+
+def direction_phrase(xyz: Sequence[float] | np.ndarray) -> str:
+    """Say where a point is for a person facing along +Z: "ahead", "slightly left", "right", ...
+
+    The bearing is ``atan2(X, Z)`` (X right): below 5 degrees "ahead", below 20 degrees "slightly
+    left/right", otherwise "left/right". An unknown position gives "".
+
+    >>> direction_phrase([-0.5, 0.0, 3.0])
+    'slightly left'
+    """
+    x, _, z = (float(c) for c in xyz)
+    if not (math.isfinite(x) and math.isfinite(z)) or z <= 0:
+        return ""
+    angle = math.degrees(math.atan2(x, z))
+    if abs(angle) < 5.0:
+        return "ahead"
+    side = "left" if angle < 0 else "right"
+    return f"slightly {side}" if abs(angle) < 20.0 else side
+
+
+def _round(value: float, digits: int) -> float | None:
+    return None if not math.isfinite(value) else round(float(value), digits)
+
+
+@dataclass(frozen=True, eq=False)
+class LocalizedObjects:
+    """Detected objects with one distance and one 3D position each (one row per detection).
+
+    Attributes
+    ----------
+    labels : tuple of str, (N,)
+        Class name of each object.
+    class_id : (N,) int64
+        Class index (-1 when the boxes came as a plain array).
+    confidence : (N,) float32
+        Detector score in [0, 1].
+    xyxy : (N, 4) float32
+        Box in left-image pixels (x0, y0, x1, y1).
+    distance_m : (N,) float64
+        Distance along the optical axis (Z of the centroid), metres; NaN unless status is "ok".
+    xyz : (N, 3) float64
+        Centroid X, Y, Z in metres in the left rectified camera frame (X right, Y down, Z forward).
+    inliers : (N,) int64
+        Pixels in the winning consistent set.
+    valid_pixels : (N,) int64
+        Pixels in the shrunk box with a known depth inside ``depth_range`` (the RANSAC input).
+    inlier_ratio : (N,) float64
+        ``inliers / valid_pixels`` (NaN when there were none).
+    spread_m : (N,) float64
+        Standard deviation of the inliers' depth, metres.
+    status : tuple of str, (N,)
+        One of :data:`STATUSES`.
+    method : str
+        "ransac" or "median".
+    """
+
+    labels: tuple[str, ...]
+    class_id: np.ndarray
+    confidence: np.ndarray
+    xyxy: np.ndarray
+    distance_m: np.ndarray
+    xyz: np.ndarray
+    inliers: np.ndarray
+    valid_pixels: np.ndarray
+    inlier_ratio: np.ndarray
+    spread_m: np.ndarray
+    status: tuple[str, ...]
+    method: str = "ransac"
+
+    def __post_init__(self) -> None:
+        n = len(self.labels)
+        shapes = {
+            "class_id": (n,), "confidence": (n,), "xyxy": (n, 4), "distance_m": (n,), "xyz": (n, 3),
+            "inliers": (n,), "valid_pixels": (n,), "inlier_ratio": (n,), "spread_m": (n,),
+        }
+        for name, shape in shapes.items():
+            arr = getattr(self, name)
+            if not isinstance(arr, np.ndarray) or arr.shape != shape:
+                got = getattr(arr, "shape", type(arr).__name__)
+                raise FusionInputError(f"LocalizedObjects.{name} must be an array of shape {shape}, got {got}")
+        if len(self.status) != n:
+            raise FusionInputError(f"LocalizedObjects.status must have {n} entries, got {len(self.status)}")
+        bad = [s for s in self.status if s not in STATUSES]
+        if bad:
+            raise FusionInputError(f"LocalizedObjects.status must be one of {STATUSES}, got {bad[0]!r}")
+        if self.method not in METHODS:
+            raise FusionInputError(f"LocalizedObjects.method must be one of {METHODS}, got {self.method!r}")
+
+    def __len__(self) -> int:
+        return len(self.labels)
+
+    def __getitem__(self, index: Any) -> LocalizedObjects:
+        """Select rows with a boolean mask, an index array, a slice or an int; returns a new object."""
+        if isinstance(index, (int, np.integer)):
+            index = [int(index)]
+        rows = np.arange(len(self))[index]
+        return LocalizedObjects(
+            labels=tuple(self.labels[i] for i in rows), class_id=self.class_id[rows],
+            confidence=self.confidence[rows], xyxy=self.xyxy[rows], distance_m=self.distance_m[rows],
+            xyz=self.xyz[rows], inliers=self.inliers[rows], valid_pixels=self.valid_pixels[rows],
+            inlier_ratio=self.inlier_ratio[rows], spread_m=self.spread_m[rows],
+            status=tuple(self.status[i] for i in rows), method=self.method,
+        )
+
+    @property
+    def ok(self) -> np.ndarray:
+        """(N,) bool: rows whose status is "ok"."""
+        return np.array([s == "ok" for s in self.status], dtype=bool)
+
+    @property
+    def directions(self) -> list[str]:
+        """Human phrase per object ("ahead", "slightly left", ...), "" where unknown."""
+        return [direction_phrase(p) for p in self.xyz]
+
+    @classmethod
+    def empty(cls, method: str = "ransac") -> LocalizedObjects:
+        """No objects (every array of length 0), e.g. for a frame without detections.
+
+        >>> len(LocalizedObjects.empty()), LocalizedObjects.empty().xyz.shape
+        (0, (0, 3))
+        """
+        z = np.zeros(0)
+        return cls(labels=(), class_id=np.zeros(0, np.int64), confidence=np.zeros(0, np.float32),
+                   xyxy=np.zeros((0, 4), np.float32), distance_m=z, xyz=np.zeros((0, 3)),
+                   inliers=np.zeros(0, np.int64), valid_pixels=np.zeros(0, np.int64), inlier_ratio=z,
+                   spread_m=z, status=(), method=method)
+
+    def to_json(self) -> list[dict[str, Any]]:
+        """One dict per object with plain Python numbers, ``None`` where unknown.
+
+        Numbers are rounded (metres to 1 mm, pixels to 0.01, scores to 1e-4) so that the JSON is stable
+        across runs and thread counts.
+        """
+        out = []
+        for i in range(len(self)):
+            out.append({
+                "label": self.labels[i],
+                "class_id": int(self.class_id[i]),
+                "confidence": _round(float(self.confidence[i]), 4),
+                "box_xyxy": [_round(float(c), 2) for c in self.xyxy[i]],
+                "status": self.status[i],
+                "distance_m": _round(float(self.distance_m[i]), 3),
+                "xyz_m": None if not np.all(np.isfinite(self.xyz[i])) else [_round(float(c), 3) for c in self.xyz[i]],
+                "direction": direction_phrase(self.xyz[i]) or None,
+                "inliers": int(self.inliers[i]),
+                "valid_pixels": int(self.valid_pixels[i]),
+                "inlier_ratio": _round(float(self.inlier_ratio[i]), 4),
+                "spread_m": _round(float(self.spread_m[i]), 3),
+                "method": self.method,
+            })
+        return out
+
+    def format_table(self) -> str:
+        """Human-readable lines: "motorcycle 0.88 2.21 m x=-0.12 y=0.05 z=2.21 slightly left"."""
+        lines = []
+        for i in range(len(self)):
+            head = f"{self.labels[i]} {float(self.confidence[i]):.2f}"
+            if self.status[i] == "ok":
+                x, y, z = self.xyz[i]
+                phrase = direction_phrase(self.xyz[i])
+                lines.append(f"{head} {self.distance_m[i]:.2f} m x={x:+.2f} y={y:+.2f} z={z:.2f} {phrase}".rstrip())
+            else:
+                lines.append(f"{head} distance unknown ({self.status[i].replace('_', ' ')})")
+        return "\n".join(lines)
