@@ -1,15 +1,22 @@
-"""stereo_classic: classical stereo matching (numba SGM), file I/O, datasets, and object localisation.
+"""stereo_classic: from a calibrated stereo pair to objects with a distance, on a CPU.
 
-Each block below belongs to one module; the public names are listed in ``__all__``.
+The packages follow the data flow (the rig comes from :mod:`calib`, detections from :mod:`detectors`):
+
+- :mod:`~stereo_classic.io`, :mod:`~stereo_classic.datasets`: stereo pairs, ground truth and files in
+- :mod:`~stereo_classic.matching`: ``SGMParams`` -> :func:`compute_disparity` -> ``DisparityMap``
+- :mod:`~stereo_classic.fusion`: detections + disparity + rig -> ``LocalizedObjects`` (``FusionParams``)
+- :mod:`~stereo_classic.pipeline`: :class:`Localizer`, the whole per-frame pipeline
+- :mod:`~stereo_classic.outputs`: pictures and every file ``run`` writes
+- :mod:`~stereo_classic.sources`, :mod:`~stereo_classic.cli`: the command line's inputs and commands
+
+The names below are the ones most programs need.
 """
 
 __version__ = "0.1.0"
 
-__all__: list[str] = ["__version__"]
-
-# --- io (file I/O, datasets, visualisation) ---
-from stereo_classic.datasets import Scene, demo_scene, iter_scenes, load_scene  # noqa: E402
-from stereo_classic.io import (  # noqa: E402
+# --- pairs, ground truth and files in
+from stereo_classic.datasets import Scene, demo_scene, iter_scenes, load_scene
+from stereo_classic.io import (
     FileFormatError,
     atomic_write,
     read_image,
@@ -22,54 +29,50 @@ from stereo_classic.io import (  # noqa: E402
     write_pfm,
     write_ply,
 )
-from stereo_classic.visualize import colorize, draw_boxes  # noqa: E402
 
-__all__ += [
-    "FileFormatError", "atomic_write", "read_image", "write_image", "read_pfm", "write_pfm",
-    "read_kitti_disparity", "write_kitti_disparity", "read_scaled_disparity", "read_ply", "write_ply",
-    "Scene", "load_scene", "iter_scenes", "demo_scene", "colorize", "draw_boxes",
-]  # fmt: skip
-
-# --- detectors (ONNX object detectors; the package itself is the leaf `detectors`) ---
-from detectors import (  # noqa: E402
-    COCO_CLASSES,
-    Detections,
-    ModelError,
-    ModelNotFoundError,
-    OnnxDetector,
-    resolve_model,
-)
-
-__all__ += ["COCO_CLASSES", "Detections", "ModelError", "ModelNotFoundError", "OnnxDetector", "resolve_model"]
-
-# --- sgm-api (stereo matcher: parameters, compute_disparity, DisparityMap, post-processing) ---
-from stereo_classic.matcher import (  # noqa: E402
+# --- disparity
+from stereo_classic.matching import (
     DisparityMap,
     MemoryBudgetError,
+    SGMParams,
     StereoInputError,
     StereoMatcher,
     compute_disparity,
     estimate_memory,
+    fill_holes,
+    filter_speckles,
 )
-from stereo_classic.params import SGMParams  # noqa: E402
-from stereo_classic.postprocess import fill_holes, filter_speckles  # noqa: E402
 
-__all__ += [
-    "SGMParams", "compute_disparity", "StereoMatcher", "DisparityMap", "estimate_memory", "MemoryBudgetError",
-    "StereoInputError", "filter_speckles", "fill_holes",
-]  # fmt: skip
+# --- detections (the package itself is the leaf `detectors`)
+from detectors import COCO_CLASSES, Detections, ModelError, ModelNotFoundError, OnnxDetector, resolve_model
 
-# --- fusion (per-object distance, the whole pipeline, CLI run helpers) ---
-from stereo_classic.fusion import (  # noqa: E402
+# --- one distance per object
+from stereo_classic.fusion import (
     FusionInputError,
+    FusionParams,
     LocalizedObjects,
     direction_phrase,
     localize,
     sparse_depth_reference,
 )
-from stereo_classic.pipeline import Localizer, PipelineResult, format_timings  # noqa: E402
 
-__all__ += [
-    "localize", "LocalizedObjects", "FusionInputError", "direction_phrase", "sparse_depth_reference",
-    "Localizer", "PipelineResult", "format_timings",
+# --- the whole pipeline, and what it writes
+from stereo_classic.pipeline import Localizer, PipelineResult, format_timings
+from stereo_classic.outputs import FrameWriter, colorize, draw_boxes
+
+__all__ = [
+    "__version__",
+    # pairs, ground truth and files
+    "Scene", "load_scene", "iter_scenes", "demo_scene",
+    "FileFormatError", "atomic_write", "read_image", "write_image", "read_pfm", "write_pfm",
+    "read_kitti_disparity", "write_kitti_disparity", "read_scaled_disparity", "read_ply", "write_ply",
+    # disparity
+    "SGMParams", "compute_disparity", "StereoMatcher", "DisparityMap", "estimate_memory", "MemoryBudgetError",
+    "StereoInputError", "filter_speckles", "fill_holes",
+    # detections
+    "COCO_CLASSES", "Detections", "ModelError", "ModelNotFoundError", "OnnxDetector", "resolve_model",
+    # distance per object
+    "FusionParams", "localize", "LocalizedObjects", "FusionInputError", "direction_phrase", "sparse_depth_reference",
+    # pipeline and outputs
+    "Localizer", "PipelineResult", "format_timings", "FrameWriter", "colorize", "draw_boxes",
 ]  # fmt: skip

@@ -19,7 +19,10 @@ from typing import Any
 
 import numpy as np
 
-from stereo_classic.fusion import LocalizedObjects, check_options, localize
+from calib import RectifiedRig
+from detectors import Detections, OnnxDetector, resolve_model
+from stereo_classic.fusion import FusionInputError, FusionParams, LocalizedObjects, as_generator, localize
+from stereo_classic.matching import DisparityMap, SGMParams, StereoInputError, StereoMatcher
 
 __all__ = ["Localizer", "PipelineResult", "format_timings", "STAGES"]
 
@@ -48,15 +51,13 @@ class PipelineResult:
 
     left: np.ndarray
     right: np.ndarray
-    disparity: Any
-    detections: Any
+    disparity: DisparityMap
+    detections: Detections | None
     objects: LocalizedObjects
     timings_ms: dict[str, float] = field(default_factory=dict)
 
 
-def _as_params(params: Any) -> Any:
-    from stereo_classic.params import SGMParams
-
+def _as_params(params: SGMParams | Mapping[str, Any] | None) -> SGMParams:
     if params is None:
         return SGMParams()
     if isinstance(params, SGMParams):
@@ -78,8 +79,8 @@ class Localizer:
         as ``detectors.OnnxDetector(model, **detector_options)``.
     params : SGMParams or dict, optional
         Matcher parameters (default ``SGMParams()``).
-    method, box_shrink, depth_range, min_pixels, tolerance_px, near_support, centre_sigma, grow_density
-        Passed to :func:`stereo_classic.localize`.
+    fusion : FusionParams, optional
+        Fusion parameters for :func:`stereo_classic.localize` (default ``FusionParams()``).
     seed : int
         Every frame uses ``rng=seed``, so a frame's result does not depend on the frames before it.
     classes : iterable of str, optional
@@ -88,45 +89,44 @@ class Localizer:
         Run the detector in a worker thread while the matcher runs (default False: not faster on 2 cores).
     detector_options : dict, optional
         Keyword arguments for ``OnnxDetector`` when ``detector`` is a name or path.
+    **fusion_overrides
+        FusionParams fields replacing those of ``fusion`` (``method="median"``, ``box_shrink=0.3``, ...).
 
     Examples
     --------
-    >>> loc = Localizer(rig, "yolox_nano")              # doctest: +SKIP
-    >>> result = loc(left, right)                       # doctest: +SKIP
-    >>> print(result.objects.format_table())            # doctest: +SKIP
-    car 0.91 12.40 m x=-1.20 y=+0.80 z=12.40 slightly left
+    Depth only (no detector) on the built-in demo scene; with ``detector="yolox_nano"`` the result's
+    ``objects.format_table()`` reads like "car 0.91 12.40 m x=-1.20 y=+0.80 z=12.40 slightly left".
+
+    >>> from stereo_classic.datasets import demo_scene
+    >>> scene = demo_scene()
+    >>> with Localizer(scene.rig, None, {"num_disparities": 80}) as loc:
+    ...     result = loc(scene.left, scene.right)
+    >>> result.disparity.disparity.shape, len(result.objects), bool(result.disparity.valid_fraction > 0.9)
+    ((500, 741), 0, True)
     """
 
-    def __init__(self, rig: Any, detector: Any = None, params: Any = None, *, method: str = "ransac",
-                 box_shrink: float = 0.2, depth_range: tuple[float, float] = (0.3, 80.0), min_pixels: int = 20,
-                 tolerance_px: float = 1.0, near_support: float = 0.5, centre_sigma: float = 0.25,
-                 grow_density: float = 0.1, seed: int = 0,
-                 classes: Iterable[str] | None = None, concurrent: bool = False,
-                 detector_options: Mapping[str, Any] | None = None) -> None:
-        from stereo_classic.matcher import StereoMatcher
-
-        for attr in ("focal_px", "baseline_m", "image_size"):
-            if not hasattr(rig, attr):
-                raise ValueError(f"`rig` must be a calib.RectifiedRig, got {type(rig).__name__} (no {attr})")
+    def __init__(self, rig: RectifiedRig, detector: Any = None,
+                 params: SGMParams | Mapping[str, Any] | None = None, *, fusion: FusionParams | None = None,
+                 seed: int = 0, classes: Iterable[str] | None = None, concurrent: bool = False,
+                 detector_options: Mapping[str, Any] | None = None, **fusion_overrides: Any) -> None:
+        if not isinstance(rig, RectifiedRig):
+            raise ValueError(f"`rig` must be a calib.RectifiedRig (a raw calib.StereoRig: rig.rectify() first), "
+                             f"got {type(rig).__name__}")
+        if fusion is not None and not isinstance(fusion, FusionParams):
+            raise FusionInputError(f"`fusion` must be a FusionParams or None, got {type(fusion).__name__}")
+        # Check every option before the matcher allocates or the detector loads.
+        self.fusion = (fusion or FusionParams()).replace(**fusion_overrides)
+        as_generator(seed, name="seed")  # the one check of a seed
+        self.seed = seed
         self.rig = rig
         self.matcher = StereoMatcher(_as_params(params))
         if isinstance(detector, (str, os.PathLike)):
-            from detectors import OnnxDetector, resolve_model
-
             detector = OnnxDetector(resolve_model(detector), **dict(detector_options or {}))
         elif detector is not None and not callable(getattr(detector, "detect", None)):
             raise ValueError(f"`detector` must have a detect(image) method, a model name or None, got "
                              f"{type(detector).__name__}")
         self.detector = detector
         self.classes = tuple(classes) if classes else None
-        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-            raise ValueError(f"`seed` must be a non-negative int, got {seed!r}")
-        self.fusion_options = dict(method=method, box_shrink=box_shrink, depth_range=tuple(depth_range),
-                                   min_pixels=min_pixels, tolerance_px=tolerance_px, near_support=near_support,
-                                   centre_sigma=centre_sigma, grow_density=grow_density)
-        self.seed = int(seed)
-        # Check the fusion options now rather than on the first frame.
-        check_options(**self.fusion_options)
         self.concurrent = bool(concurrent) and detector is not None
         self._pool: ThreadPoolExecutor | None = None
         self._first = True
@@ -161,8 +161,6 @@ class Localizer:
 
     def _check_size(self, left: np.ndarray, right: np.ndarray) -> None:
         """StereoInputError naming the parameter (`left`, `right`, `rig`) when the sizes do not fit."""
-        from stereo_classic.matcher import StereoInputError
-
         for name, img in (("left", left), ("right", right)):
             if not isinstance(img, np.ndarray) or img.ndim not in (2, 3):
                 raise StereoInputError(f"`{name}` must be an (H, W) or (H, W, 3) image array, got "
@@ -170,7 +168,7 @@ class Localizer:
         if left.shape[:2] != right.shape[:2]:
             raise StereoInputError(f"`left` and `right` images differ in size: {left.shape[1]}x{left.shape[0]} "
                                    f"and {right.shape[1]}x{right.shape[0]}")
-        raw = getattr(self.rig, "has_maps", False)
+        raw = self.rig.has_maps
         size = tuple(int(s) for s in (self.rig.raw_image_size if raw else self.rig.image_size))
         if size != (left.shape[1], left.shape[0]):
             raise StereoInputError(
@@ -182,11 +180,9 @@ class Localizer:
         """Run the pipeline on one pair (raw when the rig has rectification maps, else rectified)."""
         t0 = time.perf_counter()
         self._check_size(left, right)
-        if hasattr(self.rig, "rectify_pair"):
-            # The vertical-offset check (feature matching) runs on the first frame only.
-            check = self._first and getattr(self.rig, "has_maps", False)
-            left, right = self.rig.rectify_pair(left, right, check_offset=check)
-            self._first = False
+        # Raw pairs are rectified; the vertical-offset check (feature matching) runs on the first frame only.
+        left, right = self.rig.rectify_pair(left, right, check_offset=self._first and self.rig.has_maps)
+        self._first = False
         t1 = time.perf_counter()
         future = None
         if self.concurrent:
@@ -207,9 +203,9 @@ class Localizer:
             detections, t_detect = self._detect(left)
         t2 = time.perf_counter()
         if detections is not None and len(detections):
-            objects = localize(detections, dmap, self.rig, rng=self.seed, **self.fusion_options)
+            objects = localize(detections, dmap, self.rig, self.fusion, rng=self.seed)
         else:
-            objects = LocalizedObjects.empty(self.fusion_options["method"])
+            objects = LocalizedObjects.empty(self.fusion.method)
         t3 = time.perf_counter()
         timings = {"rectify": (t1 - t0) * 1e3, "disparity": t_match, "detect": t_detect,
                    "localize": (t3 - t2) * 1e3, "total": (t3 - t0) * 1e3}

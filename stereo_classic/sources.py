@@ -15,6 +15,7 @@ frames without reading them. Kinds:
 from __future__ import annotations
 
 import glob
+import logging
 import os
 import re
 from collections.abc import Callable, Iterator, Sequence
@@ -22,7 +23,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
+
+from calib import RectifiedRig
+from stereo_classic import datasets
+from stereo_classic.datasets import Scene
+from stereo_classic.io import read_image
 
 __all__ = [
     "Frame",
@@ -59,7 +66,7 @@ class Frame:
     name: str
     left: np.ndarray
     right: np.ndarray
-    rig: Any = None
+    rig: RectifiedRig | None = None
     max_disparity: int | None = None
 
 
@@ -121,10 +128,6 @@ def expand_pairs(left: Sequence[str | os.PathLike[str]],
 def _quietly(open_capture: Callable[[], Any]) -> Any:
     """Open a capture with OpenCV's own warnings ("can't open camera by index") silenced: the caller says it
     in one line. ``-vv`` (debug logging) keeps them."""
-    import logging
-
-    import cv2
-
     log_api = getattr(getattr(cv2, "utils", None), "logging", None)
     if log_api is None or logging.getLogger().isEnabledFor(logging.DEBUG):
         return open_capture()
@@ -155,8 +158,6 @@ class PairSource:
         return list(self._names)
 
     def frames(self, skip: Callable[[str], bool] = lambda name: False) -> Iterator[Frame]:
-        from stereo_classic.io import read_image
-
         for i, ((lp, rp), name) in enumerate(zip(self.pairs, self._names)):
             if skip(name):
                 continue
@@ -169,23 +170,19 @@ class PairSource:
 class SceneSource:
     """Scenes from ``stereo_classic.datasets``: the demo scene, one scene folder, or every scene below a folder."""
 
-    def __init__(self, scenes: Sequence[Any]) -> None:
+    def __init__(self, scenes: Sequence[Scene]) -> None:
         if not scenes:
             raise SourceError("no scenes found")
         self.scenes = list(scenes)
-        self._names = _unique([_safe_name(getattr(s, "name", "") or "scene") for s in self.scenes])
+        self._names = _unique([_safe_name(s.name or "scene") for s in self.scenes])
         self.rig = self.scenes[0].rig if len(self.scenes) == 1 else None
 
     @classmethod
     def demo(cls) -> SceneSource:
-        from stereo_classic.datasets import demo_scene
-
-        return cls([demo_scene()])
+        return cls([datasets.demo_scene()])
 
     @classmethod
     def from_folder(cls, root: str | os.PathLike[str]) -> SceneSource:
-        from stereo_classic import datasets
-
         path = Path(root)
         if not path.exists():
             raise FileNotFoundError(f"dataset folder not found: {path}")
@@ -197,13 +194,11 @@ class SceneSource:
             scenes = list(datasets.iter_scenes(path))
         if not scenes:
             raise SourceError(f"no stereo scene (Middlebury, KITTI, ...) found in {path}")
-        calibrated = [s for s in scenes if getattr(s, "rig", None) is not None]
+        calibrated = [s for s in scenes if s.rig is not None]
         if not calibrated:
             raise SourceError(f"no scene in {path} has a calibration (metric distances need one): "
                               f"{', '.join(s.name for s in scenes[:3])}")
         if len(calibrated) < len(scenes):
-            import logging
-
             logging.getLogger("stereo_classic.run").warning(
                 "skipping %d scene(s) without a calibration in %s", len(scenes) - len(calibrated), path)
         return cls(calibrated)
@@ -219,7 +214,7 @@ class SceneSource:
         for i, (scene, name) in enumerate(zip(self.scenes, self._names)):
             if skip(name):
                 continue
-            yield Frame(i, name, scene.left, scene.right, scene.rig, getattr(scene, "max_disparity", None))
+            yield Frame(i, name, scene.left, scene.right, scene.rig, scene.max_disparity)
 
     def close(self) -> None:
         pass
@@ -247,8 +242,6 @@ class SideBySideSource:
 
     def __init__(self, capture: str | os.PathLike[str] | int, *, max_frames: int | None = None,
                  capture_factory: Callable[[Any], Any] | None = None) -> None:
-        import cv2
-
         self.is_camera = isinstance(capture, int)
         if not self.is_camera and not Path(capture).is_file():
             raise FileNotFoundError(f"video file not found: {capture}")

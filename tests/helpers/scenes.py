@@ -8,26 +8,18 @@ stereo pair of two fronto-parallel planes shows, occlusions included.
 
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import cv2
 import numpy as np
 
+from calib import RectifiedRig
+
 
 def make_rig(width: int, height: int, *, focal_px: float = 700.0, baseline_m: float = 0.12,
-             doffs: float = 0.0) -> SimpleNamespace:
-    """A RectifiedRig stand-in with the attributes ``localize`` uses and a ``points`` method."""
+             doffs: float = 0.0) -> RectifiedRig:
+    """A rectified rig with the principal point at the image centre."""
     cx, cy = (width - 1) / 2.0, (height - 1) / 2.0
-
-    def points(disparity):
-        d = np.asarray(disparity, np.float64)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            z = np.where(d + doffs > 0, focal_px * baseline_m / (d + doffs), np.nan)
-        v, u = np.mgrid[0:d.shape[0], 0:d.shape[1]]
-        return np.stack([(u - cx) * z / focal_px, (v - cy) * z / focal_px, z], axis=-1).astype(np.float32)
-
-    return SimpleNamespace(focal_px=focal_px, baseline_m=baseline_m, doffs=doffs, cx_left=cx, cx_right=cx + doffs,
-                           cy=cy, image_size=(width, height), points=points)
+    return RectifiedRig(focal_px=focal_px, cx_left=cx, cx_right=cx + doffs, cy=cy, baseline_m=baseline_m,
+                        image_size=(width, height))
 
 
 def disparity_of(z: float, rig) -> float:

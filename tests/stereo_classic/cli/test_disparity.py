@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 import pytest
 
-from stereo_classic import matcher as matcher_mod
+from stereo_classic.cli import disparity as disparity_command
 from stereo_classic.cli import main
 
 
@@ -43,13 +43,13 @@ def test_writes_pfm_and_png(pair_files, tmp_path, capsys):
 
 def test_options_reach_the_matcher(pair_files, tmp_path, monkeypatch):
     seen = {}
-    real = matcher_mod.compute_disparity
+    real = disparity_command.compute_disparity
 
     def spy(left, right, params=None, **kw):
         seen["params"] = params
         return real(left, right, params, **kw)
 
-    monkeypatch.setattr(matcher_mod, "compute_disparity", spy)
+    monkeypatch.setattr(disparity_command, "compute_disparity", spy)
     lp, rp = pair_files
     out = tmp_path / "o.pfm"
     args = ["disparity", str(lp), str(rp), "-o", str(out), "--num-disparities", "20", "--min-disparity", "-2",
@@ -105,7 +105,7 @@ def test_missing_folder_with_no_png_is_a_usage_error_before_matching(pair_files,
     def must_not_match(*a, **kw):
         raise AssertionError("matched before checking the output folder")
 
-    monkeypatch.setattr(matcher_mod, "compute_disparity", must_not_match)
+    monkeypatch.setattr(disparity_command, "compute_disparity", must_not_match)
     lp, rp = pair_files
     assert main(["disparity", str(lp), str(rp), "-o", str(tmp_path / "nowhere" / "out.pfm"), "--no-png"]) == 2
     err = capsys.readouterr().err.strip().splitlines()

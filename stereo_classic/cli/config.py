@@ -27,31 +27,50 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-__all__ = ["RUN_DEFAULTS", "ConfigError", "load_config", "merge_config", "dump_config"]
+from stereo_classic.cli.options import option_fields
+from stereo_classic.fusion import FusionParams
+from stereo_classic.matching import SGMParams
+from stereo_classic.outputs import DEFAULT_SAVE
+
+__all__ = ["RUN_DEFAULTS", "FUSION_OPTIONS", "ConfigError", "load_config", "merge_config", "dump_config"]
+
+
+def _kind(value: Any) -> str:
+    """How a value of this type is checked in TOML and on the command line."""
+    if isinstance(value, bool):
+        return "bool"
+    if isinstance(value, (tuple, list)):
+        return "range" if len(value) == 2 and all(isinstance(v, float) for v in value) else "list[str]"
+    return {int: "int", float: "float", str: "str"}[type(value)]
+
+
+def _run_defaults() -> dict[str, tuple[Any, str]]:
+    """The run options in ``--dump-config`` order; the fusion ones come from ``FusionParams``."""
+    fusion = FusionParams()
+    fusion_options = {f.name: getattr(fusion, f.name) for f in option_fields(FusionParams)}
+    table: dict[str, Any] = {
+        "output": "stereo_out",
+        "save": list(DEFAULT_SAVE),
+        "ply": False,
+        "model": "yolox_nano",
+        "conf": 0.3,
+        "iou": 0.45,
+        "classes": [],
+        **{k: (list(v) if isinstance(v, tuple) else v) for k, v in fusion_options.items()},
+        "seed": 0,
+        "threads": 0,
+        "scale": 1.0,
+        "max_frames": 0,
+        "concurrent": False,
+    }
+    return {k: (v, "list[str]" if k in ("save", "classes") else _kind(v)) for k, v in table.items()}
+
 
 #: Run options with their defaults and kinds (``kind`` decides how TOML and flag values are checked).
-RUN_DEFAULTS: dict[str, tuple[Any, str]] = {
-    "output": ("stereo_out", "str"),
-    "save": (["boxes", "disparity", "depth", "pfm", "kitti", "json"], "list[str]"),
-    "ply": (False, "bool"),
-    "model": ("yolox_nano", "str"),
-    "conf": (0.3, "float"),
-    "iou": (0.45, "float"),
-    "classes": ([], "list[str]"),
-    "method": ("ransac", "str"),
-    "box_shrink": (0.2, "float"),
-    "depth_range": ([0.3, 80.0], "range"),
-    "min_pixels": (20, "int"),
-    "tolerance_px": (1.0, "float"),
-    "near_support": (0.5, "float"),
-    "centre_sigma": (0.25, "float"),
-    "grow_density": (0.1, "float"),
-    "seed": (0, "int"),
-    "threads": (0, "int"),
-    "scale": (1.0, "float"),
-    "max_frames": (0, "int"),
-    "concurrent": (False, "bool"),
-}
+RUN_DEFAULTS: dict[str, tuple[Any, str]] = _run_defaults()
+
+#: The run options that are ``FusionParams`` fields.
+FUSION_OPTIONS: tuple[str, ...] = tuple(f.name for f in option_fields(FusionParams))
 
 
 class ConfigError(ValueError):
@@ -93,8 +112,6 @@ def _check(key: str, value: Any, kind: str, where: str) -> Any:
 
 
 def _matcher_fields() -> dict[str, Any]:
-    from stereo_classic.params import SGMParams
-
     return {f.name: f for f in dataclasses.fields(SGMParams)}
 
 

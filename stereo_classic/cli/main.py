@@ -1,32 +1,26 @@
 """Command-line entry point: ``python -m stereo_classic <command> ...``.
 
-Each sub-command lives in its own module that defines ``add_parser(subparsers)`` (registering
-its options and ``set_defaults(func=...)``) and a ``func(args) -> int``. Logs go to stderr,
-data to stdout or files. Exit codes: 0 success, 1 runtime failure, 2 usage error.
+Each sub-command lives in its own module of this package that defines ``add_parser(subparsers)``
+(registering its options and ``set_defaults(func=...)``) and a ``func(args) -> int``. Logs go to
+stderr, data to stdout or files. Exit codes: 0 success, 1 runtime failure, 2 usage error.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib
 import logging
 import sys
 from collections.abc import Callable, Sequence
+
+from stereo_classic.cli import calibrate, disparity, run
+from stereo_classic.cli.errors import UsageError
 
 __all__ = ["main", "console_main", "UsageError", "build_parser", "run_guarded"]
 
 log = logging.getLogger("stereo_classic")
 
 # Sub-command modules, in the order they appear in ``--help``.
-_SUBCOMMAND_MODULES: tuple[str, ...] = (
-    "stereo_classic.cli_run",
-    "stereo_classic.cli_disparity",
-    "stereo_classic.cli_calibrate",
-)
-
-
-class UsageError(ValueError):
-    """A command line that parses but makes no sense (exit code 2)."""
+_SUBCOMMANDS = (run, disparity, calibrate)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -38,8 +32,8 @@ def build_parser() -> argparse.ArgumentParser:
     verbosity.add_argument("-v", "--verbose", action="count", default=0, help="more log output (-vv for debug); full tracebacks")
     verbosity.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in _SUBCOMMAND_MODULES:
-        importlib.import_module(name).add_parser(subparsers)
+    for module in _SUBCOMMANDS:
+        module.add_parser(subparsers)
     # -v/-q are also accepted after the command (`run -q`); SUPPRESS keeps the global value when absent.
     for sub in subparsers.choices.values():
         group = sub.add_mutually_exclusive_group()

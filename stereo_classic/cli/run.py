@@ -1,56 +1,45 @@
 """``python -m stereo_classic run``: the whole pipeline from the command line.
 
 With no arguments it runs the built-in demo scene (Middlebury Motorcycle from scikit-image) with the
-default detector, prints one line per object and writes every output into ``./stereo_out``.
+default detector, prints one line per object and writes every output into ``./stereo_out``. What each
+frame writes is :mod:`stereo_classic.outputs` (``--save`` chooses, ``--ply`` adds the point cloud); this
+module parses, opens the input, runs :class:`stereo_classic.Localizer` per frame and hands the result to a
+:class:`stereo_classic.outputs.FrameWriter`.
 
-Outputs per frame ``NAME`` (``--save`` chooses; ``--ply`` adds the point cloud):
-
-* ``NAME_boxes.png``          left image with labelled boxes ("car 12.4 m")
-* ``NAME_disparity.png``      colourised disparity (TURBO, unknown black)
-* ``NAME_depth.png``          colourised depth (TURBO, near = blue, unknown black)
-* ``NAME_disparity.pfm``      float32 disparity in pixels, NaN unknown
-* ``NAME_disparity_kitti.png`` KITTI 16-bit PNG (disparity x 256, 0 unknown)
-* ``NAME_points.ply``         coloured point cloud in metres (``--ply``)
-* ``NAME_objects.json``       objects of a single pair; sequences append one line per frame to
-  ``objects.jsonl`` instead.
-
-Every file is written atomically; the objects record is written last. Ctrl-C finishes nothing half: the
-frame in progress leaves no file, finished frames are complete, and ``--resume`` skips them.
+Ctrl-C finishes nothing half: the frame in progress leaves no file, finished frames are complete, and
+``--resume`` skips them.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import math
-import os
 import signal
 import sys
 import threading
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
+from tqdm import tqdm
 
-from stereo_classic._cli_options import add_matcher_options, matcher_fields
-from stereo_classic.cli import UsageError
+import calib
+from detectors import ModelNotFoundError, OnnxDetector, resolve_model
+from stereo_classic import sources
+from stereo_classic.cli.config import FUSION_OPTIONS, RUN_DEFAULTS, ConfigError, dump_config, load_config, merge_config
+from stereo_classic.cli.errors import UsageError
+from stereo_classic.cli.options import add_options, read_options
+from stereo_classic.fusion import FusionInputError, FusionParams, as_generator
+from stereo_classic.matching import SGMParams
+from stereo_classic.outputs import SAVE_KINDS, FrameWriter, frame_record
+from stereo_classic.pipeline import Localizer, format_timings
 
-__all__ = ["add_parser", "func", "SAVE_KINDS"]
+__all__ = ["add_parser", "func"]
 
 log = logging.getLogger("stereo_classic.run")
 
-#: What ``--save`` can name, and the file each writes (``{name}`` is the frame name).
-SAVE_KINDS: dict[str, str] = {
-    "boxes": "{name}_boxes.png",
-    "disparity": "{name}_disparity.png",
-    "depth": "{name}_depth.png",
-    "pfm": "{name}_disparity.pfm",
-    "kitti": "{name}_disparity_kitti.png",
-    "ply": "{name}_points.ply",
-    "json": "{name}_objects.json",
-}
-JSONL_NAME = "objects.jsonl"
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register the ``run`` sub-command."""
@@ -93,25 +82,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                      help="comma-separated class names to keep (e.g. car,person)")
 
     fus = p.add_argument_group("fusion")
-    fus.add_argument("--method", choices=("ransac", "median"), default=None, help="distance per box (default ransac)")
-    fus.add_argument("--box-shrink", type=float, default=None, metavar="F",
-                     help="fraction of box width/height left out at the edges (default 0.2)")
-    fus.add_argument("--depth-range", type=float, nargs=2, default=None, metavar=("NEAR", "FAR"),
-                     help="metres (default 0.3 80)")
-    fus.add_argument("--min-pixels", type=int, default=None, metavar="N",
-                     help="fewest depth pixels per box (default 20)")
-    fus.add_argument("--tolerance-px", type=float, default=None, metavar="PX",
-                     help="RANSAC inlier band in disparity px (default 1)")
-    fus.add_argument("--near-support", type=float, default=None, metavar="F",
-                     help="a nearer set wins at this fraction of the largest one's support (default 0.5)")
-    fus.add_argument("--centre-sigma", type=float, default=None, metavar="F",
-                     help="centre weighting of votes, fraction of the box (default 0.25, 0 = off)")
-    fus.add_argument("--grow-density", type=float, default=None, metavar="F",
-                     help="grow the set over continuous depths (default 0.1, 0 = off)")
+    add_options(fus, FusionParams, show_defaults=FusionParams())
     fus.add_argument("--seed", type=int, default=None, help="RANSAC seed (default 0)")
 
     mat = p.add_argument_group("matcher (the same options as the disparity command; default: SGMParams')")
-    add_matcher_options(mat, dest_prefix="matcher_", help_overrides={
+    add_options(mat, SGMParams, dest_prefix="matcher_", help_overrides={
         "num_disparities": "disparities searched (default: the scene's range, else 128)"})
 
     run = p.add_argument_group("run")
@@ -129,10 +104,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 # options
 # --------------------------------------------------------------------------------------------------
 def _options(args: argparse.Namespace) -> dict[str, Any]:
-    from stereo_classic.config import RUN_DEFAULTS, ConfigError, load_config, merge_config
-
+    """Defaults < config file < flags, checked; ``cfg["fusion"]`` is the FusionParams built from them."""
     flags = {k: getattr(args, k, None) for k in RUN_DEFAULTS}
-    matcher_flags = matcher_fields(args, dest_prefix="matcher_")
+    matcher_flags = read_options(args, SGMParams, dest_prefix="matcher_")
     try:
         file_cfg = load_config(args.config) if args.config else None
         cfg = merge_config(file_cfg, flags, matcher_flags)
@@ -143,8 +117,6 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
     bad = [s for s in cfg["save"] if s not in SAVE_KINDS]
     if bad:
         raise UsageError(f"--save: unknown output {bad[0]!r}; choose among {', '.join(SAVE_KINDS)}")
-    if cfg["method"] not in ("ransac", "median"):
-        raise UsageError(f"`method` must be ransac or median, got {cfg['method']!r}")
     if cfg["threads"] < 0:
         raise UsageError(f"--threads must be >= 1 (0 = all), got {cfg['threads']}")
     if not (0 < cfg["scale"] <= 4):
@@ -152,23 +124,15 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
     for key in ("conf", "iou"):
         if not (0.0 <= cfg[key] <= 1.0):
             raise UsageError(f"--{key} must be between 0 and 1, got {cfg[key]}")
-    if cfg["seed"] < 0:
-        raise UsageError(f"--seed must be >= 0, got {cfg['seed']}")
-    from stereo_classic.fusion import FusionInputError, check_options
-
-    try:  # check the fusion options before any work
-        check_options(method=cfg["method"], box_shrink=cfg["box_shrink"], depth_range=tuple(cfg["depth_range"]),
-                      min_pixels=cfg["min_pixels"], tolerance_px=cfg["tolerance_px"],
-                      near_support=cfg["near_support"], centre_sigma=cfg["centre_sigma"],
-                      grow_density=cfg["grow_density"])
+    try:  # check the fusion options and the seed before any work
+        as_generator(cfg["seed"], name="seed")
+        cfg["fusion"] = FusionParams(**{k: cfg[k] for k in FUSION_OPTIONS})
     except FusionInputError as exc:
         raise UsageError(str(exc)) from None
     return cfg
 
 
-def _matcher_params(cfg: dict[str, Any], max_disparity: int | None) -> Any:
-    from stereo_classic.params import SGMParams
-
+def _matcher_params(cfg: dict[str, Any], max_disparity: int | None) -> SGMParams:
     fields = dict(cfg["matcher"])
     if "num_disparities" not in fields:
         if max_disparity:
@@ -187,23 +151,21 @@ def _matcher_params(cfg: dict[str, Any], max_disparity: int | None) -> Any:
 # --------------------------------------------------------------------------------------------------
 # sources and rigs
 # --------------------------------------------------------------------------------------------------
-def _load_rig(path: str, rectify: bool) -> Any:
-    import calib
-
+def _load_rig(path: str, rectify: bool) -> calib.RectifiedRig:
     rig = calib.load_rig(path)
-    if hasattr(rig, "rectify") and not hasattr(rig, "focal_px"):  # a raw StereoRig
+    if isinstance(rig, calib.StereoRig):  # raw cameras
         if not rectify:
             raise UsageError(f"--calib {path} holds a raw (unrectified) calibration; add --rectify to rectify "
                              "the images with it")
         rig = rig.rectify()
-    elif rectify and not getattr(rig, "has_maps", False):
+    elif rectify and not rig.has_maps:
         raise UsageError(f"--rectify: {path} describes an already rectified pair (no distortion or rotation to undo)")
     return rig
 
 
-def _open_source(args: argparse.Namespace, cfg: dict[str, Any]) -> tuple[Any, Any]:
-    from stereo_classic import sources
-
+def _open_source(args: argparse.Namespace, cfg: dict[str, Any]
+                 ) -> tuple[sources.PairSource | sources.SceneSource | sources.SideBySideSource,
+                            calib.RectifiedRig | None]:
     kinds = [k for k in ("left", "dataset", "video", "camera") if getattr(args, k) is not None]
     if args.right is not None and args.left is None:
         raise UsageError("--right needs --left")
@@ -241,11 +203,9 @@ def _open_source(args: argparse.Namespace, cfg: dict[str, Any]) -> tuple[Any, An
     return src, None
 
 
-def _open_detector(cfg: dict[str, Any]) -> tuple[Any, str | None]:
+def _open_detector(cfg: dict[str, Any]) -> tuple[OnnxDetector | None, str | None]:
     if str(cfg["model"]).lower() in ("none", "off", ""):
         return None, None
-    from detectors import ModelNotFoundError, OnnxDetector, resolve_model
-
     try:
         path = resolve_model(cfg["model"])
     except ModelNotFoundError as exc:
@@ -287,143 +247,11 @@ class _DeferInterrupt:
                 raise KeyboardInterrupt
 
 
-def _box_labels(objects: Any) -> list[str]:
-    out = []
-    for label, status, dist in zip(objects.labels, objects.status, objects.distance_m):
-        out.append(f"{label} {dist:.1f} m" if status == "ok" else f"{label} ?")
-    return out
-
-
-def _frame_record(name: str, index: int, result: Any, detector_name: str | None, cfg: dict[str, Any],
-                  rig: Any) -> dict[str, Any]:
-    params = result.disparity.params.to_dict()
-    for volatile in ("threads", "memory_limit"):
-        params.pop(volatile, None)
-    h, w = result.disparity.disparity.shape
-    return {
-        "frame": name,
-        "index": index,
-        "image_size": [w, h],
-        "rig": {"focal_px": round(float(rig.focal_px), 4), "baseline_m": round(float(rig.baseline_m), 6),
-                "doffs": round(float(rig.doffs), 4)},
-        "detector": detector_name,
-        "valid_fraction": round(float(result.disparity.valid_fraction), 4),
-        "settings": {"method": cfg["method"], "box_shrink": cfg["box_shrink"], "depth_range": cfg["depth_range"],
-                     "min_pixels": cfg["min_pixels"], "tolerance_px": cfg["tolerance_px"],
-                     "near_support": cfg["near_support"], "centre_sigma": cfg["centre_sigma"],
-                     "grow_density": cfg["grow_density"], "seed": cfg["seed"], "matcher": params},
-        "objects": result.objects.to_json(),
-    }
-
-
-def _write_frame(outdir: Path, name: str, result: Any, rig: Any, cfg: dict[str, Any], record: dict[str, Any],
-                 jsonl: Any) -> list[Path]:
-    """Write one frame's files, the objects record last; on a failure remove the frame's files again."""
-    from stereo_classic import io
-
-    text = json.dumps(record, indent=2, allow_nan=False) + "\n"  # fails here, before any file, if malformed
-    outdir.mkdir(parents=True, exist_ok=True)
-    written: list[Path] = []
-    try:
-        _write_images(outdir, name, result, rig, cfg, written)
-        # The objects record is written last: it marks the frame as finished.
-        if jsonl is not None:
-            jsonl.append(record)
-        elif "json" in cfg["save"]:
-            target = outdir / SAVE_KINDS["json"].format(name=name)
-            written.append(target)
-            with io.atomic_write(target, "w") as f:
-                f.write(text)
-    except BaseException:
-        for p in written:
-            p.unlink(missing_ok=True)
-        raise
-    return written
-
-
-def _write_images(outdir: Path, name: str, result: Any, rig: Any, cfg: dict[str, Any], written: list[Path]) -> None:
-    from stereo_classic import io, visualize
-
-    save = set(cfg["save"]) | ({"ply"} if cfg["ply"] else set())
-    disp = result.disparity.disparity
-
-    def path(kind: str) -> Path:
-        p = outdir / SAVE_KINDS[kind].format(name=name)
-        written.append(p)
-        return p
-
-    depth = rig.depth(disp) if {"depth", "ply"} & save else None
-    if "boxes" in save:
-        objs = result.objects
-        image = visualize.draw_boxes(result.left, objs.xyxy, _box_labels(objs)) if len(objs) else result.left
-        io.write_image(path("boxes"), image)
-    if "disparity" in save:
-        params = result.disparity.params
-        io.write_image(path("disparity"), visualize.colorize(disp, vmin=max(0, params.min_disparity),
-                                                             vmax=params.max_disparity))
-    if "depth" in save:
-        finite = depth[np.isfinite(depth)]
-        near, far = cfg["depth_range"]
-        vmax = float(np.clip(np.percentile(finite, 98), near * 1.01, far)) if finite.size else far
-        io.write_image(path("depth"), visualize.colorize(np.where(depth <= far, depth, np.nan), vmin=near, vmax=vmax))
-    if "pfm" in save:
-        io.write_pfm(path("pfm"), disp)
-    if "kitti" in save:
-        # The KITTI PNG holds 0..255.996 px; anything else is stored as unknown (0), and said so.
-        outside = np.isfinite(disp) & ((disp < 0) | (disp > 65535 / 256))
-        if outside.any():
-            log.warning("%s: %d disparities outside 0..255.996 px do not fit a KITTI PNG and are stored as "
-                        "unknown there (the PFM keeps them)", name, int(outside.sum()))
-        io.write_kitti_disparity(path("kitti"), np.where(outside, np.float32(np.nan), disp))
-    if "ply" in save:
-        points = rig.points(disp)
-        near, far = cfg["depth_range"]
-        keep = np.isfinite(depth) & (depth >= near) & (depth <= far)
-        colors = result.left if result.left.ndim == 3 else np.repeat(result.left[..., None], 3, axis=2)
-        io.write_ply(path("ply"), points[keep], colors[keep])
-
-
-class _JsonlSink:
-    """objects.jsonl, one complete line per finished frame; a torn last line is dropped on --resume."""
-
-    def __init__(self, path: Path, resume: bool) -> None:
-        self.path = path
-        self.done: set[str] = set()
-        self.lines: list[str] = []
-        if resume and path.is_file():
-            for line in path.read_text(encoding="utf-8").splitlines():
-                try:
-                    rec = json.loads(line)
-                    self.done.add(str(rec["frame"]))
-                    self.lines.append(line)
-                except (ValueError, KeyError, TypeError):
-                    log.info("dropping an incomplete line from %s", path)
-                    break
-        self._started = False
-
-    def append(self, record: dict[str, Any]) -> None:
-        from stereo_classic.io import atomic_write
-
-        line = json.dumps(record, allow_nan=False, separators=(",", ":"))
-        if not self._started:  # rewrite what is kept (nothing without --resume), atomically
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            with atomic_write(self.path, "w") as f:
-                f.write("".join(s + "\n" for s in self.lines))
-            self._started = True
-        with open(self.path, "a", encoding="utf-8", newline="\n") as f:
-            f.write(line + "\n")
-            f.flush()
-            os.fsync(f.fileno())
-        self.done.add(str(record["frame"]))
-
-
 # --------------------------------------------------------------------------------------------------
 # the command
 # --------------------------------------------------------------------------------------------------
 def func(args: argparse.Namespace) -> int:
     """Run the pipeline over the chosen input; see the module docstring."""
-    from stereo_classic.config import dump_config
-
     cfg = _options(args)
     if args.dump_config:
         sys.stdout.write(dump_config(cfg))
@@ -435,32 +263,15 @@ def func(args: argparse.Namespace) -> int:
         source.close()
 
 
-def _expected_files(outdir: Path, name: str, cfg: dict[str, Any], sequence: bool) -> list[Path]:
-    save = set(cfg["save"]) | ({"ply"} if cfg["ply"] else set())
-    if sequence:
-        save.discard("json")
-    return [outdir / SAVE_KINDS[k].format(name=name) for k in SAVE_KINDS if k in save]
-
-
-def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: Any) -> int:
-    from tqdm import tqdm
-
-    from stereo_classic.pipeline import Localizer, format_timings
-    from stereo_classic.sources import SideBySideSource
-
+def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: calib.RectifiedRig | None) -> int:
     outdir = Path(cfg["output"])
     if outdir.exists() and not outdir.is_dir():
         raise UsageError(f"-o/--output {outdir} exists and is not a folder")
     names = source.names
-    sequence = isinstance(source, SideBySideSource) or (names is not None and len(names) != 1)
-    jsonl = _JsonlSink(outdir / JSONL_NAME, args.resume) if sequence and "json" in cfg["save"] else None
-
-    def finished(name: str) -> bool:
-        if not args.resume:
-            return False
-        if jsonl is not None and name not in jsonl.done:
-            return False
-        return all(p.is_file() for p in _expected_files(outdir, name, cfg, sequence))
+    sequence = isinstance(source, sources.SideBySideSource) or (names is not None and len(names) != 1)
+    fusion: FusionParams = cfg["fusion"]
+    writer = FrameWriter(outdir, save=cfg["save"], ply=cfg["ply"], depth_range=fusion.depth_range,
+                         sequence=sequence, resume=args.resume)
 
     detector, detector_name = _open_detector(cfg)
     # Only the current frame's Localizer is kept: in a --dataset run every scene brings its own rig, and
@@ -472,7 +283,7 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: A
 
     def skip(name: str) -> bool:
         nonlocal n_skipped
-        if finished(name):
+        if writer.finished(name):
             n_skipped += 1
             return True
         return False
@@ -491,22 +302,20 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: A
                     current.pop().close()  # frees its matcher's buffers before the next one allocates
                     current.clear()
                 if cfg["scale"] != 1.0:
-                    base = rig.without_maps() if getattr(rig, "has_maps", False) else rig
+                    base = rig.without_maps() if rig.has_maps else rig
                     rig = base.scaled(cfg["scale"])
                 current[:] = [original_rig, rig, Localizer(
-                    rig, detector, _matcher_params(cfg, frame.max_disparity), method=cfg["method"],
-                    box_shrink=cfg["box_shrink"], depth_range=tuple(cfg["depth_range"]), min_pixels=cfg["min_pixels"],
-                    tolerance_px=cfg["tolerance_px"], near_support=cfg["near_support"],
-                    centre_sigma=cfg["centre_sigma"], grow_density=cfg["grow_density"], seed=cfg["seed"],
+                    rig, detector, _matcher_params(cfg, frame.max_disparity), fusion=fusion, seed=cfg["seed"],
                     classes=cfg["classes"] or None, concurrent=cfg["concurrent"])]
             _, rig, loc = current
             left, right = frame.left, frame.right
             if cfg["scale"] != 1.0:
                 left, right = _scaled(left, right, original_rig, rig.image_size)
             result = loc(left, right)
-            record = _frame_record(frame.name, frame.index, result, detector_name, cfg, rig)
+            record = frame_record(frame.name, frame.index, result, rig, detector=detector_name, fusion=fusion,
+                                  seed=cfg["seed"])
             with _DeferInterrupt():
-                _write_frame(outdir, frame.name, result, rig, cfg, record, jsonl)
+                writer.write(frame.name, result, rig, record)
             timings.append(result.timings_ms)
             n_done += 1
             n_objects += len(result.objects)
@@ -523,7 +332,7 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: A
         bar.close()
         if current:
             current[-1].close()
-    if isinstance(source, SideBySideSource) and source.stopped_early and not interrupted:
+    if isinstance(source, sources.SideBySideSource) and source.stopped_early and not interrupted:
         log.warning("%s stopped delivering frames after %d frame(s); finishing", source.what, source.frames_read)
     if timings and not quiet:
         print(format_timings(timings), file=sys.stderr)
@@ -538,15 +347,14 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: A
     return 0
 
 
-def _scaled(left: np.ndarray, right: np.ndarray, rig: Any, size: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+def _scaled(left: np.ndarray, right: np.ndarray, rig: calib.RectifiedRig, size: tuple[int, int]
+            ) -> tuple[np.ndarray, np.ndarray]:
     """Rectify with the full-size rig (when it has maps), then resize both images to ``size`` (w, h)."""
-    import cv2
-
     expected = tuple(int(v) for v in rig.image_size)
     if (left.shape[1], left.shape[0]) != expected or left.shape != right.shape:
         raise ValueError(f"the calibration is for {expected[0]}x{expected[1]} images but the images are "
                          f"{left.shape[1]}x{left.shape[0]} and {right.shape[1]}x{right.shape[0]}")
-    if getattr(rig, "has_maps", False):
+    if rig.has_maps:
         left, right = rig.rectify_pair(left, right)
     size = (int(size[0]), int(size[1]))
     interp = cv2.INTER_AREA if size[0] < left.shape[1] else cv2.INTER_LINEAR

@@ -473,7 +473,9 @@ def test_dataset_run_keeps_the_buffers_of_one_matcher_only(tmp_path, shared_data
 def test_run_takes_every_matcher_option_of_the_disparity_command(tmp_path, pairs, monkeypatch):
     import argparse
 
-    from stereo_classic import cli_disparity, cli_run, pipeline
+    from stereo_classic import pipeline
+    from stereo_classic.cli import disparity as cli_disparity
+    from stereo_classic.cli import run as cli_run
 
     def flags(module):
         parser = module.add_parser(argparse.ArgumentParser().add_subparsers())

@@ -1,4 +1,4 @@
-"""Tests for stereo_classic.pipeline (Localizer, PipelineResult, format_timings), sources and config."""
+"""stereo_classic.pipeline: Localizer, PipelineResult, format_timings."""
 
 from __future__ import annotations
 
@@ -82,7 +82,7 @@ def test_localizer_class_filter(scene):
     (lambda l, r: (l, None), "`right` must be an"),
 ])
 def test_localizer_bad_images(scene, make, match):
-    from stereo_classic.matcher import StereoInputError
+    from stereo_classic.matching import StereoInputError
 
     left, right, _ = scene
     with Localizer(_rig(), None, {"num_disparities": 48}) as loc, pytest.raises(StereoInputError, match=match):
@@ -123,93 +123,6 @@ def test_format_timings():
     assert lines[3].split()[0] == "extra"
     assert lines[-1] == "2 frames, 4.0 frames/s"
     assert format_timings([]) == "no frames"
-
-
-# --- sources --------------------------------------------------------------------------------------------
-
-def test_expand_pairs_and_names(tmp_path):
-    from stereo_classic.sources import PairSource, SourceError, expand_pairs
-
-    for i in (2, 0, 1):
-        (tmp_path / f"a{i}_L.png").write_bytes(b"x")
-        (tmp_path / f"a{i}_R.png").write_bytes(b"x")
-    pairs = expand_pairs([str(tmp_path / "*_L.png")], [str(tmp_path / "*_R.png")])
-    assert [p[0].name for p in pairs] == ["a0_L.png", "a1_L.png", "a2_L.png"]
-    assert PairSource(pairs).names == ["a0_L", "a1_L", "a2_L"]
-    assert PairSource([(tmp_path / "a0_L.png", tmp_path / "a0_R.png")] * 2).names == ["a0_L", "a0_L_1"]
-    with pytest.raises(SourceError, match="matches no file"):
-        expand_pairs([str(tmp_path / "*.jpg")], [str(tmp_path / "*_R.png")])
-    with pytest.raises(SourceError, match="paired in order"):
-        expand_pairs([str(tmp_path / "*_L.png")], [str(tmp_path / "a0_R.png")])
-    with pytest.raises(FileNotFoundError, match="nope"):
-        expand_pairs([str(tmp_path / "nope.png")], [str(tmp_path / "a0_R.png")])
-
-
-class _Capture:
-    def __init__(self, frames, opened=True, count=0):
-        self.frames, self.opened, self.count = list(frames), opened, count
-
-    def isOpened(self):  # noqa: N802
-        return self.opened
-
-    def read(self):
-        return (True, self.frames.pop(0)) if self.frames else (False, None)
-
-    def get(self, prop):
-        return float(self.count)
-
-    def release(self):
-        self.frames = []
-
-
-def test_side_by_side_source_splits_and_stops():
-    from stereo_classic.sources import SideBySideSource, SourceError
-
-    frame = np.zeros((4, 6, 3), np.uint8)
-    frame[:, 3:] = 255
-    src = SideBySideSource(0, capture_factory=lambda _: _Capture([frame, frame]))
-    got = list(src.frames())
-    assert len(got) == 2 and src.stopped_early and src.frames_read == 2
-    assert got[0].left.shape == (4, 3, 3) and got[0].left.max() == 0 and got[0].right.min() == 255
-    src = SideBySideSource(0, max_frames=1, capture_factory=lambda _: _Capture([frame, frame]))
-    assert len(list(src.frames())) == 1 and not src.stopped_early
-    with pytest.raises(SourceError, match="cannot open camera 3"):
-        SideBySideSource(3, capture_factory=lambda _: _Capture([], opened=False))
-    odd = SideBySideSource(0, capture_factory=lambda _: _Capture([np.zeros((4, 5, 3), np.uint8)]))
-    with pytest.raises(SourceError, match="even width"):
-        list(odd.frames())
-
-
-def test_scene_source_dataset_folder(shared_data):
-    from stereo_classic.sources import SceneSource, SourceError
-
-    src = SceneSource.from_folder(shared_data / "oakd")
-    assert len(src) == 12 and len(set(src.names)) == 12
-    frames = list(src.frames(lambda name: name != src.names[3]))
-    assert len(frames) == 1 and frames[0].rig is not None and frames[0].index == 3
-    with pytest.raises(SourceError, match="calibration"):
-        SceneSource.from_folder(shared_data / "middlebury2001")  # Tsukuba and Venus come without one
-    with pytest.raises(FileNotFoundError):
-        SceneSource.from_folder(shared_data / "no-such-folder")
-    with pytest.raises(SourceError):
-        SceneSource([])
-
-
-# --- config ---------------------------------------------------------------------------------------------------
-
-def test_merge_precedence_and_dump_round_trip(tmp_path):
-    from stereo_classic.config import RUN_DEFAULTS, dump_config, load_config, merge_config
-
-    path = tmp_path / "c.toml"
-    path.write_text('conf = 0.2\nseed = 3\nclasses = ["car"]\n[matcher]\nnum_disparities = 64\ncensus_window = [7, 5]\n')
-    file_cfg = load_config(path)
-    merged = merge_config(file_cfg, {"seed": 7, "conf": None}, {"cost": "sad"})
-    assert merged["conf"] == 0.2 and merged["seed"] == 7 and merged["classes"] == ["car"]
-    assert merged["matcher"] == {"num_disparities": 64, "census_window": (7, 5), "cost": "sad"}
-    assert merged["box_shrink"] == RUN_DEFAULTS["box_shrink"][0]
-    path.write_text(dump_config(merged))
-    again = merge_config(load_config(path), {}, {})
-    assert again == merged
 
 
 # --- property test: any pair gives a well-formed result or a ValueError naming what is wrong --------------
@@ -265,7 +178,7 @@ def test_property_localizer_well_formed_or_value_error(case):
         # backticks: numpy's or numba's own ValueError from deep inside is a defect, not a clear message.
         from calib import CalibrationError
         from stereo_classic.fusion import FusionInputError
-        from stereo_classic.matcher import MemoryBudgetError, StereoInputError
+        from stereo_classic.matching import MemoryBudgetError, StereoInputError
 
         message = str(exc)
         assert message and "\n" not in message

@@ -15,7 +15,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from stereo_classic.cli import UsageError
+import calib
+from stereo_classic.cli.errors import UsageError
 
 __all__ = ["add_parser", "func", "find_pairs"]
 
@@ -103,8 +104,6 @@ def _glob(pattern: str, option: str) -> list[Path]:
 
 def func(args: argparse.Namespace) -> int:
     """Run the ``calibrate`` sub-command."""
-    import calib
-
     if args.folder and (args.left or args.right):
         raise UsageError("give either --folder or --left/--right, not both")
     if args.folder:

@@ -3,7 +3,7 @@
 Example
 -------
 >>> import numpy as np
->>> from stereo_classic.visualize import colorize, draw_boxes
+>>> from stereo_classic.outputs import colorize, draw_boxes
 >>> disparity = np.array([[1.0, 2.0], [np.nan, 4.0]], dtype=np.float32)
 >>> colorize(disparity)[1, 0].tolist()   # unknown -> black
 [0, 0, 0]

@@ -1,4 +1,4 @@
-"""stereo_classic.visualize: colorize and draw_boxes."""
+"""stereo_classic.outputs.visualize: colorize and draw_boxes."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from stereo_classic.visualize import PALETTE, colorize, draw_boxes
+from stereo_classic.outputs.visualize import PALETTE, colorize, draw_boxes
 
 
 def _turbo(index: int) -> list[int]:

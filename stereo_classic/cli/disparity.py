@@ -12,8 +12,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from stereo_classic._cli_options import add_matcher_options, matcher_fields, option_names
-from stereo_classic.cli import UsageError
+from stereo_classic import io
+from stereo_classic.cli.errors import UsageError
+from stereo_classic.cli.options import add_options, option_names, read_options
+from stereo_classic.matching import DisparityMap, SGMParams, compute_disparity, parse_bytes
+from stereo_classic.outputs import colorize, write_all_or_nothing
 
 __all__ = ["add_parser", "func"]
 
@@ -22,8 +25,6 @@ log = logging.getLogger("stereo_classic.disparity")
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register the ``disparity`` sub-command."""
-    from stereo_classic.params import SGMParams
-
     defaults = SGMParams()
     parser = subparsers.add_parser(
         "disparity",
@@ -38,7 +39,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         help="colourised disparity PNG (default: OUT with the suffix .png)")
     parser.add_argument("--no-png", action="store_true", help="do not write the colourised PNG")
     group = parser.add_argument_group("matcher parameters (see the README's parameter table)")
-    add_matcher_options(group, defaults=defaults)
+    add_options(group, SGMParams, defaults=defaults)
     group.add_argument("--threads", type=int, default=defaults.threads, metavar="N",
                        help="worker threads for the kernels (default: one per CPU; the kernels use at most 2)")
     group.add_argument("--memory-limit", default=None, metavar="BYTES",
@@ -48,10 +49,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     return parser
 
 
-def _params_from_args(args: argparse.Namespace) -> Any:
-    from stereo_classic.params import SGMParams, parse_bytes
-
-    fields = matcher_fields(args)
+def _params_from_args(args: argparse.Namespace) -> SGMParams:
+    fields = read_options(args, SGMParams)
     fields["threads"] = args.threads
     try:
         if args.memory_limit is not None:
@@ -63,7 +62,7 @@ def _params_from_args(args: argparse.Namespace) -> Any:
 
 def _option_names(message: str) -> str:
     """Name the command-line option in a message that names an SGMParams field."""
-    return option_names(message).replace("`threads`", "--threads")
+    return option_names(message, SGMParams).replace("`threads`", "--threads")
 
 
 def _outputs(args: argparse.Namespace) -> tuple[Path, Path | None]:
@@ -89,9 +88,6 @@ def _outputs(args: argparse.Namespace) -> tuple[Path, Path | None]:
 
 def func(args: argparse.Namespace) -> int:
     """Run the sub-command; returns the exit code."""
-    from stereo_classic import io, visualize
-    from stereo_classic.matcher import compute_disparity
-
     params = _params_from_args(args)
     out, png = _outputs(args)
     left = io.read_image(args.left)
@@ -102,25 +98,18 @@ def func(args: argparse.Namespace) -> int:
     dmap = compute_disparity(left, right, params)
     colour = None
     if png is not None:
-        colour = visualize.colorize(dmap.disparity, vmin=params.min_disparity, vmax=params.max_disparity)
+        colour = colorize(dmap.disparity, vmin=params.min_disparity, vmax=params.max_disparity)
     # Each file is written atomically; on a failure the other one is removed again, so no lone PFM or PNG.
-    written: list[Path] = []
-    try:
-        written.append(out)
-        io.write_pfm(out, dmap.disparity)
-        if colour is not None:
-            written.append(png)
-            io.write_image(png, colour)
-    except BaseException:
-        for path in written:
-            path.unlink(missing_ok=True)
-        raise
+    jobs = [(out, lambda path: io.write_pfm(path, dmap.disparity))]
+    if png is not None:
+        jobs.append((png, lambda path: io.write_image(path, colour)))
+    write_all_or_nothing(jobs)
     log.info("wrote %s%s", out, f" and {png}" if png is not None else "")
     _print_summary(dmap, sys.stdout)
     return 0
 
 
-def _print_summary(dmap: Any, stream: Any) -> None:
+def _print_summary(dmap: DisparityMap, stream: Any) -> None:
     v = dmap.validity
     print(f"valid pixels: {v['valid']} of {v['pixels']} ({100.0 * dmap.valid_fraction:.1f} %)"
           + (f", {v['filled']} filled" if v.get("filled") else ""), file=stream)
