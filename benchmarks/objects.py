@@ -46,9 +46,9 @@ def _median_stats(times: Sequence[float]) -> dict[str, Any]:
 
 
 def detector_latency(models: Sequence[Path], image: np.ndarray, *, threads: Sequence[int] = (1, 2), repeat: int = 5) -> dict[str, Any]:
-    """Latency of ``OnnxDetector.detect`` per model and thread count, via ``detectors.bench.measure_latency``
+    """Latency of ``OnnxDetector.detect`` per model and thread count, via ``benchmarks.detector_latency.measure_latency``
     (median per stage: preprocess, inference, postprocess, total; thread counts interleaved; warm-up excluded)."""
-    from detectors.bench import measure_latency
+    from benchmarks.detector_latency import measure_latency
 
     if not models:
         return _unavailable("no detector model found (give --models DIR or set STEREO_CLASSIC_MODELS)")
@@ -63,7 +63,7 @@ def detector_latency(models: Sequence[Path], image: np.ndarray, *, threads: Sequ
                 rows.append(r)
         except Exception as exc:  # noqa: BLE001 - a model the detectors package cannot run is reported, not fatal
             rows.append({"model": path.name, "threads": None, "error": f"{type(exc).__name__}: {exc}"})
-    how = "detectors.bench.measure_latency: OnnxDetector.detect, median per stage, thread counts interleaved, warm-up excluded"
+    how = "benchmarks.detector_latency.measure_latency: OnnxDetector.detect, median per stage, thread counts interleaved, warm-up excluded"
     return {"available": True, "image_size": [int(image.shape[1]), int(image.shape[0])], "rows": rows, "how": how}
 
 

@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from detectors import Detections, OnnxDetector, box_iou
-from detectors.bench import format_table, measure_latency
 
 # Middlebury 2014 Motorcycle (741 x 497): tail light at x 91, front tyre at x 686, mirror stalk top
 # at y 30, front tyre bottom at y 450.
@@ -115,17 +114,3 @@ def test_fastestdet_real(shared_models, shared_data):
     assert _best_iou(moto, MOTORCYCLE)[0] >= 0.7
     person = det.detect(_read(shared_data, "oakd/selfie_left.png")).only("person")
     assert _best_iou(person, SELFIE_PERSON)[0] >= 0.7
-
-
-def test_measure_latency_rows(yolox_nano, shared_data):
-    image = _read(shared_data, "oakd/selfie_left.png")
-    rows = measure_latency(yolox_nano, [image], threads=(1, 2), repeats=2, warmup=1)
-    assert [r["threads"] for r in rows] == [1, 2]
-    for r in rows:
-        assert r["family"] == "yolox" and r["n"] == 2
-        assert r["inference_ms"] > 0 and r["total_ms"] >= r["inference_ms"]
-    assert "yolox_nano.onnx" in format_table(rows)
-    with pytest.raises(ValueError, match="`repeats`"):
-        measure_latency(yolox_nano, [image], repeats=0)
-    with pytest.raises(ValueError, match="`images`"):
-        measure_latency(yolox_nano, [])

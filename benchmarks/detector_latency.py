@@ -12,7 +12,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from detectors.onnx_detector import OnnxDetector
+from detectors import OnnxDetector
 
 __all__ = ["measure_latency", "format_table"]
 
@@ -94,15 +94,15 @@ def format_table(rows: Sequence[dict]) -> str:
     return "\n".join(lines)
 
 
-if __name__ == "__main__":  # python -m detectors.bench MODEL IMAGE...
+if __name__ == "__main__":  # python -m benchmarks.detector_latency MODEL IMAGE...
     import sys
 
     from detectors.imageio import read_image
 
     if len(sys.argv) < 3:
-        sys.exit("usage: python -m detectors.bench MODEL IMAGE...")
+        sys.exit("usage: python -m benchmarks.detector_latency MODEL IMAGE...")
     try:
         imgs = [read_image(p) for p in sys.argv[2:]]
     except (FileNotFoundError, ValueError) as exc:
-        sys.exit(f"detectors.bench: {exc}")
+        sys.exit(f"benchmarks.detector_latency: {exc}")
     print(format_table(measure_latency(sys.argv[1], imgs)))
