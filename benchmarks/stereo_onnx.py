@@ -21,10 +21,10 @@ the one named ``disparity`` (else the first), any of (1, 1, H, W), (1, H, W) or 
 network ran at another width than the image, the disparity is resized back and multiplied by the
 width ratio. Values that are not finite or below ``min_disparity`` become NaN.
 
-Example
--------
->>> stereo = OnnxStereo("model.onnx", input_size=(640, 384))          # doctest: +SKIP
->>> disparity = stereo.compute(left_bgr, right_bgr)                   # doctest: +SKIP
+Usage (needs files that are not part of the package)::
+
+    stereo = OnnxStereo("model.onnx", input_size=(640, 384))
+    disparity = stereo.compute(left_bgr, right_bgr)
 """
 
 from __future__ import annotations

@@ -72,10 +72,10 @@ class OnnxDetector:
     max_detections : int
         At most this many boxes per image, highest scores first.
 
-    Examples
-    --------
-    >>> det = OnnxDetector("yolox_nano", threads=2)                  # doctest: +SKIP
-    >>> dets = det.detect(cv2.imread("left.png")).only("person")     # doctest: +SKIP
+    Usage (needs files that are not part of the package)::
+
+        det = OnnxDetector("yolox_nano", threads=2)
+        dets = det.detect(cv2.imread("left.png")).only("person")
     """
 
     def __init__(
