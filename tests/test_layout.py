@@ -16,7 +16,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 PACKAGES = ("calib", "stereo_classic", "detectors", "benchmarks")
 #: Modules allowed past the length limit: the numba kernels, unrolled by hand for speed.
-LONG_MODULES = {"stereo_classic.matching._kernels.core"}
+LONG_MODULES = {"stereo_classic.matching._kernels.aggregate"}
 MAX_LINES = 600
 
 

@@ -24,7 +24,13 @@ import numpy as np
 from numba import njit
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
-from stereo_classic.matching._kernels.intrinsics import absdiff16, add16, popcnt16, shr16, sub16
+from stereo_classic.matching._kernels.intrinsics import (
+    absdiff16,
+    add16,
+    popcnt16,
+    shr16,
+    sub16,
+)
 
 __all__ = [
     "SOBEL_CAP",

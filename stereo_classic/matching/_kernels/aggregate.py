@@ -1,0 +1,679 @@
+"""Fused two-thread semi-global matching kernel (numba): ``sgm_pass`` and its argument records.
+
+The Python side (threads, buffers, the public entry points) is :mod:`.core`.
+
+Design:
+
+* One int16 sum volume ``S`` (H, W, D), disparity innermost. No stored cost volume and no
+  per-path volumes: costs are recomputed per pixel (census: popcount of a xor; SAD: running box
+  sums kept per thread), and the path recursions keep only row buffers.
+* The 8 directions are split into a *forward* pass (rows top-down, x left-to-right: from the left,
+  from above, from the top-left, from the top-right) and a *backward* pass (rows bottom-up, x
+  right-to-left: the four opposite directions).
+* Phase 1: thread A runs the forward pass over the top half of the rows, thread B the backward
+  pass over the bottom half, each *storing* its 4-path partial sums into ``S``. Phase 2 (after the
+  barrier): thread A continues forward over the bottom half and thread B backward over the top
+  half, each *adding* its 4 paths to the stored partial sum; every row is then complete and is
+  resolved at once (winner-takes-all, uniqueness, parabola subpixel, right-view argmin, left-right
+  check) while it is still in cache: no separate argmin pass.
+* The 4 paths of a pass are updated in ONE loop over the disparities (int16 vectors, 32 lanes).
+  Path vectors live in skewed row buffers: the new vector of a pixel is written one slot before
+  the slot its predecessor is read from (vertical slot ``i - v + H``, diagonals ``i - 2v + 2H``
+  and ``i + 1``), so every write lands on a vector the row has already consumed: no copies, no
+  temporaries, about 1 MB per thread at 1242 x 375 x 128 (Zen 4: 1 MB L2 per core).
+* In phase 2 the complete sums go to a D-vector scratch, not back to ``S`` (only the test entry
+  ``sum_volume`` keeps them).
+* Arithmetic stays in int16 through LLVM intrinsics (``intrinsics``); flat arrays indexed
+  with unsigned offsets (no wraparound code, plain vector loads); per-pixel loops written out in
+  ``sgm_pass`` (separate numba functions are not inlined by LLVM, and inlining at numba-IR level
+  adds reference counting per pixel).
+
+Bounds: every path value satisfies ``L <= C + P2`` and costs are at most ``invalid_cost =
+Cmax + 2 * P2 + 1``, so ``8 * (invalid_cost + P2) <= 32767`` keeps the 8-path sum inside int16
+(checked by ``check_penalties``). Disparities whose match falls outside the right image get
+``invalid_cost``, which is larger than ``min_prev + P2`` for every predecessor, so they never
+influence the path minimum of a valid disparity and never win; a pixel is NaN only when no
+disparity of the range maps inside the right image.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from stereo_classic.matching._kernels.cost import (
+    CENSUS,
+    SAD,
+    SAD_PIXEL_MAX,
+    NoAliasCompiler,
+    census_bits,
+    sad_colsum_advance,
+    sad_colsum_init,
+    sad_hsum_init,
+)
+from stereo_classic.matching._kernels.intrinsics import (
+    add16,
+    and16,
+    min16,
+    popxor16,
+    sub16,
+)
+
+__all__ = ["check_penalties", "cost_scale", "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
+           "ALL_PATHS", "FOUR_PATHS", "PATH_NAMES", "PATH_STEPS"]
+
+#: Bit i of a path mask selects direction PATH_NAMES[i]. Bits 0-3 run in the forward pass,
+#: bits 4-7 in the backward pass. (dx, dy) is the step from the previous pixel on the path.
+PATH_NAMES = ("left", "top", "top-left", "top-right", "right", "bottom", "bottom-right", "bottom-left")
+PATH_STEPS = ((1, 0), (0, 1), (1, 1), (-1, 1), (-1, 0), (0, -1), (-1, -1), (1, -1))
+ALL_PATHS = 0xFF
+FOUR_PATHS = 0x33  # left, top, right, bottom
+
+_INT16_MAX = 32767
+_SENTINEL = 16383  # padding at both disparity ends of every path vector: "no neighbour"
+_KIND = {"census": CENSUS, "sad": SAD}
+
+
+# ----------------------------------------------------------------------------------------------
+# the arguments of sgm_pass, grouped (numba takes each NamedTuple as one argument and passes its
+# arrays on to LLVM as separate, non-aliasing pointers: the compiled loops are those of plain arguments)
+
+
+class PassSettings(NamedTuple):
+    """Aggregation and selection settings, the same for every pass of one match.
+
+    Attributes
+    ----------
+    p1, p2 : int
+        Penalties in the units of the (scaled) cost.
+    adaptive_p2 : bool
+        P2 / (1 + |I(p) - I(p - r)|), never below P1.
+    path_mask : int
+        Directions to aggregate (bit i: ``PATH_NAMES[i]``).
+    uniqueness : float
+        Fraction 0..1 (0 = off).
+    lr_threshold : float
+        Left-right check threshold, pixels; negative = no check.
+    lr_claims : bool
+        The check is OpenCV's collision check (``lr_mode="opencv"``).
+    subpixel : bool
+        Parabola subpixel refinement.
+    right_view : bool
+        Compute the right view's winner (for the "full" check or ``return_right``).
+    """
+
+    p1: int
+    p2: int
+    adaptive_p2: bool
+    path_mask: int
+    uniqueness: float
+    lr_threshold: float
+    lr_claims: bool
+    subpixel: bool
+    right_view: bool
+
+
+class PassPlan(NamedTuple):
+    """The rows one call of ``sgm_pass`` covers and what it does with the sums.
+
+    Attributes
+    ----------
+    y_first : int
+        First row (top row of the range for the forward pass, bottom row for the backward pass).
+    n_rows : int
+        Number of rows.
+    step : int
+        +1: forward pass (rows down, x to the right); -1: backward pass.
+    accumulate : bool
+        Add this pass's paths to the stored partial sums (phase 2) instead of storing them (phase 1).
+    select : bool
+        Resolve every pixel once its sum is complete (winner, uniqueness, subpixel, LR check).
+    init_cost : bool
+        (SAD) build the column sums from scratch at the first row.
+    keep_sums : bool
+        Write the complete sums back to the volume (test entry ``sum_volume``).
+    """
+
+    y_first: int
+    n_rows: int
+    step: int
+    accumulate: bool
+    select: bool
+    init_cost: bool
+    keep_sums: bool
+
+
+class ThreadBuffers(NamedTuple):
+    """Row buffers of one thread (int16 unless said otherwise; E = D + 2).
+
+    Attributes
+    ----------
+    path_h, path_v, path_a, path_b : (slots * E,) int16
+        Skewed path-vector slots of the horizontal, vertical and two diagonal directions.
+    min_h, min_v, min_a, min_b : (slots,) int16
+        Minimum of each path vector.
+    cost : (D,) int16
+        Cost of the current pixel.
+    sums : (D,) int16
+        Complete sum of the current pixel (phase 2, when the volume does not keep it).
+    colsum : ((W + 2h) * D,) int16
+        SAD column sums ((1,) placeholder for census).
+    hsum : (D,) int32
+        SAD window sum of the current pixel.
+    rrev : (4 * (W + D - 1),) uint16
+        Census code quarters of the current right row, reversed ((1,) for SAD).
+    srev, irev : (W + 2h + D - 1,) int16
+        SAD channels of a right row, reversed ((1,) for census).
+    right_sums, right_k : (W + D - 1,) int16
+        Right view: best sum and its disparity index per right pixel.
+    best : (W,) int64
+        Winning disparity index per pixel of the row (-1: none).
+    counts : (2,) int64
+        Pixels rejected by uniqueness and by the LR check.
+    claim_cost, claim_k : (W,) int16
+        OpenCV-style LR check: cost and disparity index of each right pixel's claim.
+    """
+
+    path_h: np.ndarray
+    path_v: np.ndarray
+    path_a: np.ndarray
+    path_b: np.ndarray
+    min_h: np.ndarray
+    min_v: np.ndarray
+    min_a: np.ndarray
+    min_b: np.ndarray
+    cost: np.ndarray
+    sums: np.ndarray
+    colsum: np.ndarray
+    hsum: np.ndarray
+    rrev: np.ndarray
+    srev: np.ndarray
+    irev: np.ndarray
+    right_sums: np.ndarray
+    right_k: np.ndarray
+    best: np.ndarray
+    counts: np.ndarray
+    claim_cost: np.ndarray
+    claim_k: np.ndarray
+
+
+class PassOutputs(NamedTuple):
+    """What the passes write.
+
+    Attributes
+    ----------
+    sums : (H * W * D,) int16
+        The sum volume, flat, disparity innermost.
+    disparity : (H, W) float32
+        Left view, pixels, NaN where unknown.
+    disparity_right : (H, W) float32
+        Right view (written when ``PassSettings.right_view``).
+    """
+
+    sums: np.ndarray
+    disparity: np.ndarray
+    disparity_right: np.ndarray
+
+
+# ----------------------------------------------------------------------------------------------
+# parameters
+
+
+def cost_scale(cost: str, block_size: int, census_window: tuple[int, int], p2: int) -> tuple[int, int]:
+    """(shift, cmax): the SAD window sum is shifted right by ``shift`` so that the SGM sums fit
+    int16; ``cmax`` is the largest cost after scaling. Census has shift 0 and cmax = bits."""
+    if cost == "census":
+        return 0, census_bits(census_window)
+    raw = block_size * block_size * SAD_PIXEL_MAX
+    shift = 0
+    while ((raw >> shift) + 3 * (p2 >> shift) + 1) * 8 > _INT16_MAX:
+        shift += 1
+    return shift, raw >> shift
+
+
+def check_penalties(cost: str, block_size: int, census_window: tuple[int, int], p1: int, p2: int) -> None:
+    """Raise ValueError when the penalties cannot be represented in the int16 sums."""
+    if not (0 <= p1 <= p2):
+        raise ValueError(f"penalties must satisfy 0 <= p1 <= p2, got p1={p1}, p2={p2}")
+    shift, cmax = cost_scale(cost, block_size, census_window, p2)
+    p2s = p2 >> shift
+    if 8 * (cmax + 3 * p2s + 1) > _INT16_MAX:
+        limit = (_INT16_MAX // 8 - 1 - cmax) // 3
+        raise ValueError(f"`p2` too large for int16 sums with cost {cost!r}: at most {limit}, got {p2}")
+
+
+# ----------------------------------------------------------------------------------------------
+# kernels
+
+
+_U = np.uint64  # unsigned flat indices: no wraparound code, contiguous vector loads
+
+
+@njit(cache=True, nogil=True)
+def _p2_at(limg, y, x, yp, xp, p1, p2, adaptive):  # pragma: no cover - numba
+    """P2, divided by 1 + |I(p) - I(p - r)| when adaptive (never below P1)."""
+    if not adaptive:
+        return p2
+    H, W = limg.shape
+    if yp < 0 or yp >= H or xp < 0 or xp >= W:
+        return p2
+    diff = abs(np.int32(limg[y, x]) - np.int32(limg[yp, xp]))
+    q = np.int16(np.int32(p2) // (1 + diff))
+    return q if q > p1 else p1
+
+
+@njit(cache=True, nogil=True)
+def _lr(P, rb, c, m, q, p1, k):  # pragma: no cover - numba
+    """New path value at disparity k from the previous vector at P[rb:rb + D + 2] (min m, m + P2 = q)."""
+    return add16(sub16(c, m), min16(min16(P[_U(rb + 1 + k)], add16(min16(P[_U(rb + k)], P[_U(rb + 2 + k)]), p1)), q))
+
+
+@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - numba
+    """Run one 4-path pass: forward (``plan.step`` +1) or backward (-1), over ``plan.n_rows`` rows.
+
+    Parameters
+    ----------
+    images : CostImages
+        The left image and what the cost reads (census code quarters or SAD channels).
+    cost : CostSettings
+        Cost kind, disparity offset, SAD window and scaling, invalid cost.
+    settings : PassSettings
+        Penalties, path mask and the selection settings, the same for every pass of one match.
+    plan : PassPlan
+        Rows, direction, and what this pass does with the sums (store, accumulate, select).
+    bufs : ThreadBuffers
+        This thread's row buffers (never shared with a concurrent pass).
+    out : PassOutputs
+        The flat (H * W * D,) int16 sum volume and the (H, W) float32 disparity maps.
+
+    ``plan.accumulate``: add to the sum volume instead of storing (the complete sums go back to it
+    only when ``plan.keep_sums``, else to the scratch vector ``bufs.sums``); ``plan.select``: resolve
+    every pixel as soon as its sum is complete, and the row's right view and LR check at the row end;
+    ``plan.init_cost``: (SAD) build the column sums from scratch at the first row.
+
+    Path vectors: slots of E = D + 2 int16 (sentinels at both ends), minima in MH/MV/MA/MB. In pass
+    coordinates (i = position along the row in processing order, v = rows processed since the
+    pass started at the image edge), the new vector of pixel (v, i) is written at slot w and its
+    predecessor is read at slot w + 1: vertical w = i - v + H, diagonal A (from (v-1, i-1))
+    w = i - 2v + 2H, diagonal B (from (v-1, i+1)) w = i + 1. Each write overwrites a vector the
+    row has already consumed, so no copies and no temporaries are needed; slots never written
+    hold zeros = the path start. Horizontal: two slots, alternating.
+    C: (D,) cost of the current pixel.
+    """
+    # Short local names for the loops below (the arithmetic reads like the paper's recursion).
+    limg = images.left
+    lcode = images.left_code
+    rcode = images.right_code
+    lsob = images.left_sobel
+    lint = images.left_intensity
+    rsob = images.right_sobel
+    rint = images.right_intensity
+    kind = cost.kind
+    dmin = cost.min_disparity
+    h = cost.half_block
+    shift = cost.shift
+    cmax = cost.cmax
+    cinv = cost.invalid_cost
+    p1 = settings.p1
+    p2 = settings.p2
+    adaptive = settings.adaptive_p2
+    path_mask = settings.path_mask
+    uniq = settings.uniqueness
+    lr_thr = settings.lr_threshold
+    lr_claims = settings.lr_claims
+    subpix = settings.subpixel
+    right_view = settings.right_view
+    y_first = plan.y_first
+    nrows = plan.n_rows
+    step = plan.step
+    accumulate = plan.accumulate
+    select = plan.select
+    init_cost = plan.init_cost
+    keep_sums = plan.keep_sums
+    PH = bufs.path_h
+    PV = bufs.path_v
+    PA = bufs.path_a
+    PB = bufs.path_b
+    MH = bufs.min_h
+    MV = bufs.min_v
+    MA = bufs.min_a
+    MB = bufs.min_b
+    C = bufs.cost
+    Ssum = bufs.sums
+    colsum = bufs.colsum
+    hsum = bufs.hsum
+    rrev = bufs.rrev
+    srev = bufs.srev
+    irev = bufs.irev
+    rv = bufs.right_sums
+    rd = bufs.right_k
+    best = bufs.best
+    counts = bufs.counts
+    ccost = bufs.claim_cost
+    ck = bufs.claim_k
+    Sf = out.sums
+    disp = out.disparity
+    dispR = out.disparity_right
+    H = limg.shape[0]
+    W = limg.shape[1]
+    D = C.shape[0]
+    E = D + 2
+    m4 = (path_mask & 15) if step > 0 else ((path_mask >> 4) & 15)
+    four = (m4 & 12) != 0
+    minus1 = np.int16(-1)
+    zero = np.int16(0)
+    mk0 = minus1 if m4 & 1 else zero
+    mk1 = minus1 if m4 & 2 else zero
+    mk2 = minus1 if m4 & 4 else zero
+    mk3 = minus1 if m4 & 8 else zero
+    p1_16 = np.int16(p1)
+    p2_16 = np.int16(p2)
+    cinv16 = np.int16(cinv)
+    big = np.int16(_INT16_MAX)
+    nan = np.float32(np.nan)
+    forward = step > 0
+    dst = Sf if keep_sums else Ssum
+    nrr = W + D - 1  # length of one reversed right-row quarter
+    for r in range(nrows):
+        y = y_first + step * r
+        v = y if forward else H - 1 - y
+        # --- per-row cost preparation
+        if kind == 0:  # rrev[q * nrr + j] = quarter q of the right code at column clamp(W - 1 - dmin - j)
+            for j in range(nrr):
+                c = W - 1 - dmin - j
+                c = 0 if c < 0 else (W - 1 if c >= W else c)
+                for q in range(4):
+                    rrev[q * nrr + j] = rcode[y, c, q]
+        else:
+            if r == 0 and init_cost:
+                sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D)
+            else:
+                sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, D)
+        for k in range(D):
+            PH[k + 1] = zero
+        MH[0] = zero
+        if select and right_view:
+            for q in range(rv.shape[0]):
+                rv[q] = big
+                rd[q] = minus1
+        if select and lr_claims:
+            for q in range(W):
+                ccost[q] = big
+                ck[q] = minus1
+        for i in range(W):
+            x = i if forward else W - 1 - i
+            # --- cost of pixel (y, x) (census written out here: a call per pixel costs as much). For
+            # 8 paths and a pixel whose whole range is valid, the census cost is computed inside the
+            # path loop below instead ("fuse": no cost vector stored and reloaded).
+            k_lo = x - dmin - W + 1
+            if k_lo < 0:
+                k_lo = 0
+            k_hi = x - dmin
+            if k_hi > D - 1:
+                k_hi = D - 1
+            fuse = kind == 0 and four and k_lo == 0 and k_hi == D - 1
+            a0 = a1 = a2 = a3 = np.uint16(0)
+            if kind == 0:
+                a0 = lcode[y, x, 0]
+                a1 = lcode[y, x, 1]
+                a2 = lcode[y, x, 2]
+                a3 = lcode[y, x, 3]
+            j0 = W - 1 - x
+            j1 = j0 + nrr
+            j2 = j1 + nrr
+            j3 = j2 + nrr
+            if kind == 0:  # 4 x 16-bit quarters of the census code: vpopcntw, all in int16 lanes
+                if not fuse:
+                    for k in range(D):
+                        C[k] = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                                     add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
+            else:
+                if i == 0:
+                    sad_hsum_init(hsum, colsum, x, h, D)
+                else:  # move the window from x - step to x (sad_hsum_advance, written out)
+                    bin_ = (x + step * h + h) * D
+                    bout = (x - step * (h + 1) + h) * D
+                    for k in range(D):
+                        hsum[k] += np.int32(colsum[_U(bin_ + k)]) - np.int32(colsum[_U(bout + k)])
+                for k in range(D):
+                    sv32 = hsum[k] >> shift
+                    C[k] = np.int16(sv32 if sv32 < cmax else cmax)
+            # disparities whose match is outside the right image: k outside [k_lo, k_hi]
+            if k_lo > 0 or k_hi < D - 1:
+                for k in range(D):
+                    if k < k_lo or k > k_hi:
+                        C[k] = cinv16
+            sb = (y * W + x) * D
+            db = sb if keep_sums else 0
+            # --- slots: write w, read w + 1 (horizontal: alternate between slots 0 and 1)
+            rhs = i & 1
+            whs = 1 - rhs
+            wvs = i - v + H
+            mh = MH[rhs]
+            mv = MV[wvs + 1]
+            if adaptive:
+                qh = add16(mh, _p2_at(limg, y, x, y, x - step, p1_16, p2_16, adaptive))
+                qv = add16(mv, _p2_at(limg, y, x, y - step, x, p1_16, p2_16, adaptive))
+            else:
+                qh = add16(mh, p2_16)
+                qv = add16(mv, p2_16)
+            wh = whs * E
+            rh = rhs * E
+            wv = wvs * E
+            rvb = wv + E
+            nh = big
+            nv = big
+            ns = big
+            # The loops below are written out four times (4 or 2 paths, store or accumulate): as
+            # separate functions they are not inlined by LLVM and the call per pixel costs ~20 %.
+            if four:
+                was = i - 2 * v + 2 * H
+                wbs = i + 1
+                ma = MA[was + 1]
+                mb = MB[wbs + 1]
+                if adaptive:
+                    qa = add16(ma, _p2_at(limg, y, x, y - step, x - step, p1_16, p2_16, adaptive))
+                    qb = add16(mb, _p2_at(limg, y, x, y - step, x + step, p1_16, p2_16, adaptive))
+                else:
+                    qa = add16(ma, p2_16)
+                    qb = add16(mb, p2_16)
+                wa = was * E
+                ra = wa + E
+                wb = wbs * E
+                rb = wb + E
+                na = big
+                nb = big
+                if accumulate and fuse:
+                    for k in range(D):
+                        c = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                                  add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
+                        vh = _lr(PH, rh, c, mh, qh, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
+                        va = _lr(PA, ra, c, ma, qa, p1_16, k)
+                        vb = _lr(PB, rb, c, mb, qb, p1_16, k)
+                        PH[_U(wh + 1 + k)] = vh
+                        PV[_U(wv + 1 + k)] = vv
+                        PA[_U(wa + 1 + k)] = va
+                        PB[_U(wb + 1 + k)] = vb
+                        nh = min16(nh, vh)
+                        nv = min16(nv, vv)
+                        na = min16(na, va)
+                        nb = min16(nb, vb)
+                        sm = add16(add16(add16(and16(vh, mk0), and16(vv, mk1)), add16(and16(va, mk2), and16(vb, mk3))),
+                                   Sf[_U(sb + k)])
+                        dst[_U(db + k)] = sm
+                        ns = min16(ns, sm)
+                elif not accumulate and fuse:
+                    for k in range(D):
+                        c = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                                  add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
+                        vh = _lr(PH, rh, c, mh, qh, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
+                        va = _lr(PA, ra, c, ma, qa, p1_16, k)
+                        vb = _lr(PB, rb, c, mb, qb, p1_16, k)
+                        PH[_U(wh + 1 + k)] = vh
+                        PV[_U(wv + 1 + k)] = vv
+                        PA[_U(wa + 1 + k)] = va
+                        PB[_U(wb + 1 + k)] = vb
+                        nh = min16(nh, vh)
+                        nv = min16(nv, vv)
+                        na = min16(na, va)
+                        nb = min16(nb, vb)
+                        Sf[_U(sb + k)] = add16(add16(and16(vh, mk0), and16(vv, mk1)),
+                                               add16(and16(va, mk2), and16(vb, mk3)))
+                elif accumulate:
+                    for k in range(D):
+                        c = C[k]
+                        vh = _lr(PH, rh, c, mh, qh, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
+                        va = _lr(PA, ra, c, ma, qa, p1_16, k)
+                        vb = _lr(PB, rb, c, mb, qb, p1_16, k)
+                        PH[_U(wh + 1 + k)] = vh
+                        PV[_U(wv + 1 + k)] = vv
+                        PA[_U(wa + 1 + k)] = va
+                        PB[_U(wb + 1 + k)] = vb
+                        nh = min16(nh, vh)
+                        nv = min16(nv, vv)
+                        na = min16(na, va)
+                        nb = min16(nb, vb)
+                        sm = add16(add16(add16(and16(vh, mk0), and16(vv, mk1)), add16(and16(va, mk2), and16(vb, mk3))),
+                                   Sf[_U(sb + k)])
+                        dst[_U(db + k)] = sm
+                        ns = min16(ns, sm)
+                else:
+                    for k in range(D):
+                        c = C[k]
+                        vh = _lr(PH, rh, c, mh, qh, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
+                        va = _lr(PA, ra, c, ma, qa, p1_16, k)
+                        vb = _lr(PB, rb, c, mb, qb, p1_16, k)
+                        PH[_U(wh + 1 + k)] = vh
+                        PV[_U(wv + 1 + k)] = vv
+                        PA[_U(wa + 1 + k)] = va
+                        PB[_U(wb + 1 + k)] = vb
+                        nh = min16(nh, vh)
+                        nv = min16(nv, vv)
+                        na = min16(na, va)
+                        nb = min16(nb, vb)
+                        Sf[_U(sb + k)] = add16(add16(and16(vh, mk0), and16(vv, mk1)),
+                                               add16(and16(va, mk2), and16(vb, mk3)))
+                MA[was] = na
+                MB[wbs] = nb
+            else:
+                if accumulate:
+                    for k in range(D):
+                        c = C[k]
+                        vh = _lr(PH, rh, c, mh, qh, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
+                        PH[_U(wh + 1 + k)] = vh
+                        PV[_U(wv + 1 + k)] = vv
+                        nh = min16(nh, vh)
+                        nv = min16(nv, vv)
+                        sm = add16(add16(and16(vh, mk0), and16(vv, mk1)), Sf[_U(sb + k)])
+                        dst[_U(db + k)] = sm
+                        ns = min16(ns, sm)
+                else:
+                    for k in range(D):
+                        c = C[k]
+                        vh = _lr(PH, rh, c, mh, qh, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
+                        PH[_U(wh + 1 + k)] = vh
+                        PV[_U(wv + 1 + k)] = vv
+                        nh = min16(nh, vh)
+                        nv = min16(nv, vv)
+                        Sf[_U(sb + k)] = add16(and16(vh, mk0), and16(vv, mk1))
+            MH[whs] = nh
+            MV[wvs] = nv
+            # --- winner of a complete pixel: WTA (first index of the minimum ns; invalid k always
+            # sum higher than valid ones), right-view update, uniqueness, parabola subpixel
+            if select:
+                if k_lo > k_hi:
+                    disp[y, x] = nan
+                    best[x] = -1
+                    continue
+                n = k_hi - k_lo + 1
+                b0 = db + k_lo
+                bk = k_lo  # first index of the minimum: usually near the start, a scalar scan wins
+                while bk < k_hi and dst[_U(db + bk)] != ns:
+                    bk += 1
+                best[x] = bk
+                q0 = W - 1 - x + k_lo  # right pixel x - dmin - k sits at q = W - 1 - x + k
+                if not right_view:
+                    pass
+                elif forward:  # ties keep the smallest k whatever the order of x
+                    for j in range(n):
+                        sv = dst[_U(b0 + j)]
+                        old = rv[_U(q0 + j)]
+                        lt = sv < old
+                        rv[_U(q0 + j)] = sv if lt else old
+                        rd[_U(q0 + j)] = np.int16(k_lo + j) if lt else rd[_U(q0 + j)]
+                else:
+                    for j in range(n):
+                        sv = dst[_U(b0 + j)]
+                        old = rv[_U(q0 + j)]
+                        le = sv <= old
+                        rv[_U(q0 + j)] = sv if le else old
+                        rd[_U(q0 + j)] = np.int16(k_lo + j) if le else rd[_U(q0 + j)]
+                if uniq > 0.0:
+                    m2 = big
+                    for k in range(k_lo, bk - 1):
+                        m2 = min16(m2, dst[_U(db + k)])
+                    for k in range(bk + 2, k_hi + 1):
+                        m2 = min16(m2, dst[_U(db + k)])
+                    if m2 < big and np.float64(m2) * (1.0 - uniq) < np.float64(ns):
+                        disp[y, x] = nan
+                        counts[0] += 1
+                        continue
+                if lr_claims:
+                    # LR check as OpenCV does it: the right pixel x - d is claimed by the left pixel
+                    # with the lowest minimum sum among those whose winner lands there (ties: the
+                    # largest x, whatever the pass direction)
+                    xr = x - dmin - bk
+                    if ns < ccost[xr] or (forward and ns == ccost[xr]):
+                        ccost[xr] = ns
+                        ck[xr] = np.int16(bk)
+                off = 0.0
+                if subpix and bk - 1 >= k_lo and bk + 1 <= k_hi:
+                    sm_ = np.int64(dst[_U(db + bk - 1)])
+                    sp_ = np.int64(dst[_U(db + bk + 1)])
+                    den = sm_ + sp_ - 2 * np.int64(ns)
+                    if den > 0:
+                        off = (sm_ - sp_) / (2.0 * den)
+                disp[y, x] = np.float32(dmin + bk + off)
+        if select and lr_claims:
+            # reject x only when the claims at both x - floor(d) and x - ceil(d) disagree with it
+            for x in range(W):
+                dv = disp[y, x]
+                if dv != dv:
+                    continue
+                t = np.float64(dv) - dmin
+                kf = np.int64(np.floor(t))
+                kc = np.int64(np.ceil(t))
+                xf = x - dmin - kf
+                xc = x - dmin - kc
+                bad_f = 0 <= xf < W and ck[xf] >= 0 and abs(np.float64(ck[xf] - kf)) > lr_thr
+                bad_c = 0 <= xc < W and ck[xc] >= 0 and abs(np.float64(ck[xc] - kc)) > lr_thr
+                if bad_f and bad_c:
+                    disp[y, x] = nan
+                    counts[1] += 1
+        if select and right_view and lr_thr >= 0.0 and not lr_claims:
+            # full check: |best - right-view winner at x - dmin - best| > lr_thr
+            for x in range(W):
+                b = best[x]
+                if b < 0 or disp[y, x] != disp[y, x]:
+                    continue
+                q = W - 1 - x + b
+                if abs(np.float64(b - rd[q])) > lr_thr:
+                    disp[y, x] = nan
+                    counts[1] += 1
+        if select and right_view:
+            nq = rv.shape[0]
+            for xr in range(W):
+                q = W - 1 - dmin - xr
+                if 0 <= q < nq and rd[q] >= 0:
+                    dispR[y, xr] = np.float32(dmin + rd[q])
+                else:
+                    dispR[y, xr] = nan
