@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from tests.helpers.scenes import disparity_of, make_rig, planted_scene
+from tests.helpers.scenes import make_rig, planted_scene
 
 
 def test_planted_scene_is_a_consistent_stereo_pair():
