@@ -38,7 +38,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument("--png", metavar="PATH", default=None,
                         help="colourised disparity PNG (default: OUT with the suffix .png)")
     parser.add_argument("--no-png", action="store_true", help="do not write the colourised PNG")
-    group = parser.add_argument_group("matcher parameters (see the README's parameter table)")
+    group = parser.add_argument_group("matcher parameters (docs/matching.md#parameters)")
     add_options(group, SGMParams, defaults=defaults)
     group.add_argument("--threads", type=int, default=defaults.threads, metavar="N",
                        help="worker threads for the kernels (default: one per CPU; the kernels use at most 2)")

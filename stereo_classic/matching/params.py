@@ -53,7 +53,7 @@ MAX_PENALTY = 32767
 #: Census windows whose bit string fits the 64-bit kernel (width * height - 1 <= 64 bits).
 _MAX_CENSUS_BITS = 64
 
-# Census defaults: measured best on the developers' scenes (see the README's parameter table).
+# Census defaults: measured best on the developers' scenes (see docs/matching.md#parameters).
 _CENSUS_P1 = 20
 _CENSUS_P2 = 80
 # SAD defaults: OpenCV's recommendation 8 * cn * block^2 and 32 * cn * block^2 with cn = 1 (we match on grey).
@@ -176,7 +176,7 @@ class SGMParams:
     lr_check : float or None
         Maximum left-right disparity difference in pixels; None = no left-right check (default:
         on the real scenes it removes more good pixels than bad ones unless holes are filled;
-        use 1.0 for fewer, more reliable pixels, see the README).
+        use 1.0 for fewer, more reliable pixels, see docs/matching.md).
     lr_mode : {"full", "opencv"}
         How the left-right check finds the right view's disparity. "full" (default): the right
         image's own winner over the same sums (strict). "opencv": StereoSGBM's check, which only

@@ -12,7 +12,7 @@ OpenCV's documented setting". The like-for-like row is ``cost="sad", block_size=
 window with the same penalty rule per channel (P1 = 8 * 5^2, P2 = 32 * 5^2 on one grey channel against
 OpenCV's 8 * 3 * 5^2, 32 * 3 * 5^2 summed over three colour channels).
 
-The numbers asserted below were measured on this code and this data (see the README table); the
+The numbers asserted below were measured on this code and this data (see docs/matching.md); the
 margins catch a regression, not noise (both matchers are deterministic).
 """
 
