@@ -7,7 +7,8 @@ The packages follow the data flow (the rig comes from :mod:`calib`, detections f
 - :mod:`~stereo_classic.fusion`: detections + disparity + rig -> ``LocalizedObjects`` (``FusionParams``)
 - :mod:`~stereo_classic.pipeline`: :class:`Localizer`, the whole per-frame pipeline
 - :mod:`~stereo_classic.outputs`: pictures and every file ``run`` writes
-- :mod:`~stereo_classic.sources`, :mod:`~stereo_classic.cli`: the command line's inputs and commands
+- :mod:`~stereo_classic.sources`, :mod:`~stereo_classic.runner`: frames in, the pipeline over them into a folder
+- :mod:`~stereo_classic.cli`: the command line, a thin layer over the above
 
 The names below are the ones most programs need.
 """

@@ -1,13 +1,11 @@
 """``python -m stereo_classic run``: the whole pipeline from the command line.
 
 With no arguments it runs the built-in demo scene (Middlebury Motorcycle from scikit-image) with the
-default detector, prints one line per object and writes every output into ``./stereo_out``. What each
-frame writes is :mod:`stereo_classic.outputs` (``--save`` chooses, ``--ply`` adds the point cloud); this
-module parses, opens the input, runs :class:`stereo_classic.Localizer` per frame and hands the result to a
-:class:`stereo_classic.outputs.FrameWriter`.
-
-Ctrl-C finishes nothing half: the frame in progress leaves no file, finished frames are complete, and
-``--resume`` skips them.
+default detector, prints one line per object and writes every output into ``./stereo_out``. This module
+parses the options, opens the input, the rig and the detector, and calls :func:`stereo_classic.runner.run_source`,
+which runs the pipeline per frame and writes with a :class:`stereo_classic.outputs.FrameWriter` (``--save``
+chooses the files, ``--ply`` adds the point cloud). Ctrl-C finishes nothing half: the frame in progress leaves
+no file, finished frames are complete, and ``--resume`` skips them.
 """
 
 from __future__ import annotations
@@ -15,26 +13,30 @@ from __future__ import annotations
 import argparse
 import logging
 import math
-import signal
 import sys
-import threading
 from pathlib import Path
 from typing import Any
 
-import cv2
-import numpy as np
 from tqdm import tqdm
 
 import calib
 from detectors import ModelNotFoundError, OnnxDetector, resolve_model
 from stereo_classic import sources
-from stereo_classic.cli.config import FUSION_OPTIONS, RUN_DEFAULTS, ConfigError, dump_config, load_config, merge_config
+from stereo_classic.cli.config import (
+    FUSION_OPTIONS,
+    RUN_DEFAULTS,
+    ConfigError,
+    dump_config,
+    load_config,
+    merge_config,
+)
 from stereo_classic.cli.errors import UsageError
 from stereo_classic.cli.options import add_options, read_options
 from stereo_classic.fusion import FusionInputError, FusionParams, as_generator
 from stereo_classic.matching import SGMParams
-from stereo_classic.outputs import SAVE_KINDS, FrameWriter, frame_record
-from stereo_classic.pipeline import Localizer, format_timings
+from stereo_classic.outputs import SAVE_KINDS, FrameWriter
+from stereo_classic.pipeline import PipelineResult, format_timings
+from stereo_classic.runner import run_source
 
 __all__ = ["add_parser", "func"]
 
@@ -224,30 +226,6 @@ def _open_detector(cfg: dict[str, Any]) -> tuple[OnnxDetector | None, str | None
 
 
 # --------------------------------------------------------------------------------------------------
-# writing one frame
-# --------------------------------------------------------------------------------------------------
-class _DeferInterrupt:
-    """Hold Ctrl-C while one frame's files are written, then raise it: a frame is all or nothing."""
-
-    def __enter__(self) -> _DeferInterrupt:
-        self.received = False
-        self.active = threading.current_thread() is threading.main_thread()
-        if self.active:
-            self.previous = signal.getsignal(signal.SIGINT)
-            signal.signal(signal.SIGINT, self._handler)
-        return self
-
-    def _handler(self, signum: int, frame: Any) -> None:
-        self.received = True
-
-    def __exit__(self, *exc: Any) -> None:
-        if self.active:
-            signal.signal(signal.SIGINT, self.previous)
-            if self.received and exc[0] is None:
-                raise KeyboardInterrupt
-
-
-# --------------------------------------------------------------------------------------------------
 # the command
 # --------------------------------------------------------------------------------------------------
 def func(args: argparse.Namespace) -> int:
@@ -263,7 +241,8 @@ def func(args: argparse.Namespace) -> int:
         source.close()
 
 
-def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: calib.RectifiedRig | None) -> int:
+def _run(args: argparse.Namespace, cfg: dict[str, Any], source: sources.PairSource | sources.SceneSource
+         | sources.SideBySideSource, base_rig: calib.RectifiedRig | None) -> int:
     outdir = Path(cfg["output"])
     if outdir.exists() and not outdir.is_dir():
         raise UsageError(f"-o/--output {outdir} exists and is not a folder")
@@ -272,90 +251,32 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Any, base_rig: c
     fusion: FusionParams = cfg["fusion"]
     writer = FrameWriter(outdir, save=cfg["save"], ply=cfg["ply"], depth_range=fusion.depth_range,
                          sequence=sequence, resume=args.resume)
-
     detector, detector_name = _open_detector(cfg)
-    # Only the current frame's Localizer is kept: in a --dataset run every scene brings its own rig, and
-    # each Localizer's matcher holds ~2*H*W*D bytes of buffers, so the previous one is closed on a change.
-    current: list[Any] = []  # [original rig, scaled rig, Localizer] of the frame in progress
-    timings: list[dict[str, float]] = []
-    n_objects = n_done = n_skipped = 0
     quiet = getattr(args, "quiet", False)
 
-    def skip(name: str) -> bool:
-        nonlocal n_skipped
-        if writer.finished(name):
-            n_skipped += 1
-            return True
-        return False
+    def show(frame: sources.Frame, result: PipelineResult) -> None:
+        table = result.objects.format_table()
+        if sequence:
+            text = f"[{frame.name}] " + ("; ".join(table.splitlines()) if table else "no objects")
+        else:
+            text = table if table else ("no objects found" if detector is not None else "depth only (no detector)")
+        tqdm.write(text, file=sys.stdout)
 
-    total = len(source) or None
-    bar = tqdm(total=total, unit="frame", file=sys.stderr, leave=False,
-               disable=quiet or args.no_progress or not sys.stderr.isatty())
-    interrupted = False
-    try:
-        for frame in source.frames(skip):
-            rig = original_rig = frame.rig if frame.rig is not None else base_rig
-            if rig is None:
-                raise ValueError(f"frame {frame.name}: no calibration")
-            if not current or current[0] is not original_rig:
-                if current:
-                    current.pop().close()  # frees its matcher's buffers before the next one allocates
-                    current.clear()
-                if cfg["scale"] != 1.0:
-                    base = rig.without_maps() if rig.has_maps else rig
-                    rig = base.scaled(cfg["scale"])
-                current[:] = [original_rig, rig, Localizer(
-                    rig, detector, _matcher_params(cfg, frame.max_disparity), fusion=fusion, seed=cfg["seed"],
-                    classes=cfg["classes"] or None, concurrent=cfg["concurrent"])]
-            _, rig, loc = current
-            left, right = frame.left, frame.right
-            if cfg["scale"] != 1.0:
-                left, right = _scaled(left, right, original_rig, rig.image_size)
-            result = loc(left, right)
-            record = frame_record(frame.name, frame.index, result, rig, detector=detector_name, fusion=fusion,
-                                  seed=cfg["seed"])
-            with _DeferInterrupt():
-                writer.write(frame.name, result, rig, record)
-            timings.append(result.timings_ms)
-            n_done += 1
-            n_objects += len(result.objects)
-            table = result.objects.format_table()
-            if sequence:
-                text = f"[{frame.name}] " + ("; ".join(table.splitlines()) if table else "no objects")
-            else:
-                text = table if table else ("no objects found" if detector is not None else "depth only (no detector)")
-            tqdm.write(text, file=sys.stdout)
-            bar.update(1)
-    except KeyboardInterrupt:
-        interrupted = True
-    finally:
-        bar.close()
-        if current:
-            current[-1].close()
-    if isinstance(source, sources.SideBySideSource) and source.stopped_early and not interrupted:
+    summary = run_source(
+        source, writer, params_for=lambda max_disparity: _matcher_params(cfg, max_disparity), rig=base_rig,
+        detector=detector, detector_name=detector_name, fusion=fusion, seed=cfg["seed"],
+        classes=cfg["classes"] or None, concurrent=cfg["concurrent"], scale=cfg["scale"],
+        progress=not (quiet or args.no_progress) and sys.stderr.isatty(), on_frame=show)
+    if isinstance(source, sources.SideBySideSource) and source.stopped_early and not summary.interrupted:
         log.warning("%s stopped delivering frames after %d frame(s); finishing", source.what, source.frames_read)
-    if timings and not quiet:
-        print(format_timings(timings), file=sys.stderr)
-    summary = f"{n_done} frame(s), {n_objects} object(s), outputs in {outdir}"
-    if n_skipped:
-        summary += f"; {n_skipped} finished frame(s) skipped (--resume)"
-    if interrupted:
-        print(f"interrupted: {summary}; the frame in progress was not written, rerun with --resume to continue",
+    if summary.timings_ms and not quiet:
+        print(format_timings(summary.timings_ms), file=sys.stderr)
+    text = f"{summary.frames} frame(s), {summary.objects} object(s), outputs in {outdir}"
+    if summary.skipped:
+        text += f"; {summary.skipped} finished frame(s) skipped (--resume)"
+    if summary.interrupted:
+        print(f"interrupted: {text}; the frame in progress was not written, rerun with --resume to continue",
               file=sys.stderr)
         return 130
-    log.info(summary)
+    log.info(text)
     return 0
-
-
-def _scaled(left: np.ndarray, right: np.ndarray, rig: calib.RectifiedRig, size: tuple[int, int]
-            ) -> tuple[np.ndarray, np.ndarray]:
-    """Rectify with the full-size rig (when it has maps), then resize both images to ``size`` (w, h)."""
-    expected = tuple(int(v) for v in rig.image_size)
-    if (left.shape[1], left.shape[0]) != expected or left.shape != right.shape:
-        raise ValueError(f"the calibration is for {expected[0]}x{expected[1]} images but the images are "
-                         f"{left.shape[1]}x{left.shape[0]} and {right.shape[1]}x{right.shape[0]}")
-    if rig.has_maps:
-        left, right = rig.rectify_pair(left, right)
-    size = (int(size[0]), int(size[1]))
-    interp = cv2.INTER_AREA if size[0] < left.shape[1] else cv2.INTER_LINEAR
-    return cv2.resize(left, size, interpolation=interp), cv2.resize(right, size, interpolation=interp)

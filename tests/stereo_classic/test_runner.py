@@ -1,0 +1,88 @@
+"""stereo_classic.runner: the pipeline over a source into a folder, as a library (what `run` does)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from stereo_classic import io, pipeline
+from stereo_classic.cli import main
+from stereo_classic.matching import SGMParams
+from stereo_classic.outputs import FrameWriter
+from stereo_classic.runner import RunSummary, run_source, scale_pair
+from stereo_classic.sources import PairSource
+from tests.helpers.scenes import make_rig, planted_scene
+
+
+@pytest.fixture()
+def pairs(tmp_path):
+    rig = make_rig(240, 160)
+    files = []
+    for i in range(2):
+        left, right, _, _ = planted_scene(rig=rig, seed=i, z_box=2.5 + 0.5 * i)
+        lp, rp = tmp_path / f"f{i}_L.png", tmp_path / f"f{i}_R.png"
+        io.write_image(lp, left)
+        io.write_image(rp, right)
+        files.append((lp, rp))
+    return files, rig
+
+
+def _params(max_disparity):
+    return SGMParams(num_disparities=48)
+
+
+def test_library_run_writes_what_the_command_writes(tmp_path, pairs):
+    files, rig = pairs
+    out_lib = tmp_path / "lib"
+    summary = run_source(PairSource(files), FrameWriter(out_lib, sequence=True), params_for=_params, rig=rig)
+    assert (summary.frames, summary.skipped, summary.interrupted) == (2, 0, False)
+    assert len(summary.timings_ms) == 2
+    calib_file = tmp_path / "rig.yaml"
+    rig.to_opencv_yaml(calib_file)
+    out_cli = tmp_path / "cli"
+    argv = ["-q", "run", "--left", *[str(p[0]) for p in files], "--right", *[str(p[1]) for p in files],
+            "--calib", str(calib_file), "--model", "none", "--num-disparities", "48", "-o", str(out_cli)]
+    assert main(argv) == 0
+    assert sorted(p.name for p in out_lib.iterdir()) == sorted(p.name for p in out_cli.iterdir())
+    for name in ("f0_L_disparity.pfm", "f1_L_disparity_kitti.png", "f0_L_depth.png"):
+        assert (out_lib / name).read_bytes() == (out_cli / name).read_bytes()
+    lib_lines = [json.loads(line) for line in (out_lib / "objects.jsonl").read_text().splitlines()]
+    cli_lines = [json.loads(line) for line in (out_cli / "objects.jsonl").read_text().splitlines()]
+    assert lib_lines == cli_lines
+
+
+def test_resume_skips_finished_frames_and_ctrl_c_is_a_summary(tmp_path, pairs, monkeypatch):
+    files, rig = pairs
+    out = tmp_path / "o"
+    real_call = pipeline.Localizer.__call__
+    calls = {"n": 0}
+
+    def interrupt_on_second(self, left, right):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            raise KeyboardInterrupt
+        return real_call(self, left, right)
+
+    monkeypatch.setattr(pipeline.Localizer, "__call__", interrupt_on_second)
+    first = run_source(PairSource(files), FrameWriter(out, sequence=True), params_for=_params, rig=rig)
+    assert (first.frames, first.interrupted) == (1, True)
+    assert not list(out.glob("f1_L*"))
+    monkeypatch.setattr(pipeline.Localizer, "__call__", real_call)
+    again = run_source(PairSource(files), FrameWriter(out, sequence=True, resume=True), params_for=_params, rig=rig)
+    assert (again.frames, again.skipped, again.interrupted) == (1, 1, False)
+    assert len((out / "objects.jsonl").read_text().splitlines()) == 2
+
+
+def test_scale_and_errors(tmp_path, pairs):
+    files, rig = pairs
+    seen = []
+    summary = run_source(PairSource(files[:1]), FrameWriter(tmp_path, save=("pfm",)), params_for=_params, rig=rig,
+                         scale=0.5, on_frame=lambda frame, result: seen.append(result.disparity.disparity.shape))
+    assert summary == RunSummary(frames=1, objects=0, skipped=0, interrupted=False, timings_ms=summary.timings_ms)
+    assert seen == [(80, 120)]
+    with pytest.raises(ValueError, match="no calibration"):
+        run_source(PairSource(files[:1]), FrameWriter(tmp_path / "x"), params_for=_params)
+    left = io.read_image(files[0][0])
+    with pytest.raises(ValueError, match="calibration is for 240x160"):
+        scale_pair(left[:100], left[:100], rig, (120, 80))
