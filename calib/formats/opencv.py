@@ -233,9 +233,12 @@ def read_projections(path: PathLike, *, image_size: tuple[int, int] | None = Non
         ``focal_px``, ``cx_left``, ``cx_right``, ``cy`` (pixels), ``baseline_m`` (metres), ``image_size``.
     """
     st = OpenCVStorage(path, "OpenCV calibration")
-    size = st.image_size(image_size)
-    p1, p2 = st.matrix("P1", (3, 4)), st.matrix("P2", (3, 4))
-    return rectified_from_projections(st.path, p1, p2, size, ("P1", "P2"))
+    return _projections(st, st.image_size(image_size))
+
+
+def _projections(st: OpenCVStorage, size: tuple[int, int]) -> dict[str, Any]:
+    """The rectified geometry of the storage's ``P1`` and ``P2``."""
+    return rectified_from_projections(st.path, st.matrix("P1", (3, 4)), st.matrix("P2", (3, 4)), size, ("P1", "P2"))
 
 
 def read_rectified(path: PathLike, *, image_size: tuple[int, int] | None = None) -> dict[str, Any]:
@@ -249,7 +252,7 @@ def read_rectified(path: PathLike, *, image_size: tuple[int, int] | None = None)
     st = OpenCVStorage(path, "OpenCV calibration")
     size = st.image_size(image_size)
     if st.has("P1") and st.has("P2"):
-        return rectified_from_projections(st.path, st.matrix("P1", (3, 4)), st.matrix("P2", (3, 4)), size, ("P1", "P2"))
+        return _projections(st, size)
     if st.has("Q"):
         q = st.matrix("Q", (4, 4))
         if not (q[3, 2] > 0 and q[2, 3] > 0):

@@ -15,11 +15,18 @@ array([[1.5, nan]], dtype=float32)
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from stereo_classic.io._common import PathLike, as_path, as_real_array, encode_image, read_single_channel
+from stereo_classic.io._common import (
+    PathLike,
+    as_path,
+    as_real_array,
+    encode_image,
+    read_single_channel,
+)
 from stereo_classic.io.atomic import atomic_write
 from stereo_classic.io.errors import FileFormatError
 
@@ -43,9 +50,26 @@ def read_kitti_disparity(path: PathLike) -> np.ndarray:
     p, raw = read_single_channel(path, "KITTI disparity")
     if raw.dtype != np.uint16:
         raise FileFormatError(f"KITTI disparity {p} must be a 16-bit PNG, got {raw.dtype}")
-    disparity = raw.astype(np.float32) / np.float32(256.0)
-    disparity[raw == 0] = np.nan
-    return disparity
+    return _from_x256(raw)
+
+
+def _from_x256(raw: np.ndarray) -> np.ndarray:
+    """KITTI's 16-bit coding (value x 256, 0 = unknown) as float32 with NaN for unknown."""
+    values = raw.astype(np.float32) / np.float32(256.0)
+    values[raw == 0] = np.nan
+    return values
+
+
+def _write_x256(p: Path, values: np.ndarray, known: np.ndarray) -> None:
+    """Write ``values`` (checked: known ones in [0, 65535/256]) as KITTI's 16-bit PNG, atomically.
+
+    A known value that rounds to 0 is stored as 1/256 so that it stays known.
+    """
+    raw = np.zeros(values.shape, dtype=np.uint16)
+    raw[known] = np.clip(np.rint(values[known] * 256.0), 1, 65535).astype(np.uint16)
+    data = encode_image(p, raw)
+    with atomic_write(p, "wb") as f:
+        f.write(data)
 
 
 def _check_disparity(disparity: Any, name: str = "disparity") -> np.ndarray:
@@ -73,13 +97,9 @@ def write_kitti_disparity(path: PathLike, disparity: np.ndarray) -> None:
                 "`disparity` values must be NaN (unknown) or in [0, 255.996] px for a KITTI PNG, got "
                 f"{int(bad.sum())} values outside (min {np.min(vals)}, max {np.max(vals)})"
             )
-    raw = np.zeros(d.shape, dtype=np.uint16)
-    raw[known] = np.clip(np.rint(vals * 256.0), 1, 65535).astype(np.uint16)
     if p.suffix.lower() != ".png":
         raise ValueError(f"KITTI disparity must be written as .png, got {p.name}")
-    data = encode_image(p, raw)
-    with atomic_write(p, "wb") as f:
-        f.write(data)
+    _write_x256(p, d, known)
 
 
 
@@ -100,9 +120,7 @@ def read_kitti_depth(path: PathLike) -> np.ndarray:
     p, raw = read_single_channel(path, "depth map")
     if raw.dtype != np.uint16:
         raise FileFormatError(f"depth map {p} must be a 16-bit PNG (metres x 256), got {raw.dtype}")
-    depth = raw.astype(np.float32) / np.float32(256.0)
-    depth[raw == 0] = np.nan
-    return depth
+    return _from_x256(raw)
 
 
 def write_kitti_depth(path: PathLike, depth: np.ndarray) -> None:
@@ -130,11 +148,7 @@ def write_kitti_depth(path: PathLike, depth: np.ndarray) -> None:
             )
     if p.suffix.lower() != ".png":
         raise ValueError(f"KITTI depth must be written as .png, got {p.name}")
-    raw = np.zeros(d.shape, dtype=np.uint16)
-    raw[known] = np.clip(np.rint(vals * 256.0), 1, 65535).astype(np.uint16)
-    data = encode_image(p, raw)
-    with atomic_write(p, "wb") as f:
-        f.write(data)
+    _write_x256(p, d, known)
 
 def _check_scale(scale: Any) -> float:
     if isinstance(scale, bool) or not isinstance(scale, (int, float, np.integer, np.floating)):
