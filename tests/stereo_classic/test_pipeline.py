@@ -9,30 +9,8 @@ import numpy as np
 import pytest
 
 from stereo_classic.pipeline import STAGES, Localizer, format_timings
-from tests.helpers.scenes import planted_scene
-
-
-def _rig(width=240, height=160):
-    from calib import RectifiedRig
-
-    return RectifiedRig(focal_px=700.0, cx_left=(width - 1) / 2, cx_right=(width - 1) / 2, cy=(height - 1) / 2,
-                        baseline_m=0.12, image_size=(width, height))
-
-
-class _Boxes:
-    """Detector stand-in: fixed boxes, counts its calls."""
-
-    def __init__(self, boxes, names=("box", "car")):
-        from detectors import Detections
-
-        n = len(boxes)
-        self.dets = Detections(xyxy=np.array(boxes, np.float32).reshape(n, 4), confidence=np.full(n, 0.8, np.float32),
-                               class_id=np.arange(n) % len(names), class_names=tuple(names))
-        self.calls = 0
-
-    def detect(self, image):
-        self.calls += 1
-        return self.dets
+from tests.helpers.detectors import FixedBoxes
+from tests.helpers.scenes import make_rig, planted_scene
 
 
 @pytest.fixture(scope="module")
@@ -43,7 +21,7 @@ def scene():
 
 def test_localizer_smoke_depth_only(scene):
     left, right, _ = scene
-    with Localizer(_rig(), None, {"num_disparities": 48}) as loc:
+    with Localizer(make_rig(240, 160), None, {"num_disparities": 48}) as loc:
         result = loc(left, right)
     assert result.detections is None and len(result.objects) == 0
     assert result.disparity.disparity.shape == (160, 240)
@@ -52,9 +30,9 @@ def test_localizer_smoke_depth_only(scene):
 
 def test_localizer_accuracy_reuse_and_concurrency(scene):
     left, right, _ = scene
-    det = _Boxes([[80, 50, 160, 110], [0, 0, 40, 30]])
-    seq = Localizer(_rig(), det, {"num_disparities": 48}, concurrent=False)
-    con = Localizer(_rig(), det, {"num_disparities": 48}, concurrent=True)
+    det = FixedBoxes([[80, 50, 160, 110], [0, 0, 40, 30]])
+    seq = Localizer(make_rig(240, 160), det, {"num_disparities": 48}, concurrent=False)
+    con = Localizer(make_rig(240, 160), det, {"num_disparities": 48}, concurrent=True)
     try:
         a, b, c = seq(left, right), con(left, right), con(left, right)
     finally:
@@ -69,7 +47,7 @@ def test_localizer_accuracy_reuse_and_concurrency(scene):
 
 def test_localizer_class_filter(scene):
     left, right, _ = scene
-    with Localizer(_rig(), _Boxes([[80, 50, 160, 110], [0, 0, 40, 30]]), {"num_disparities": 48},
+    with Localizer(make_rig(240, 160), FixedBoxes([[80, 50, 160, 110], [0, 0, 40, 30]]), {"num_disparities": 48},
                    classes=["car"]) as loc:
         result = loc(left, right)
     assert result.objects.labels == ("car",) and len(result.detections) == 1
@@ -85,7 +63,7 @@ def test_localizer_bad_images(scene, make, match):
     from stereo_classic.matching import StereoInputError
 
     left, right, _ = scene
-    with Localizer(_rig(), None, {"num_disparities": 48}) as loc, pytest.raises(StereoInputError, match=match):
+    with Localizer(make_rig(240, 160), None, {"num_disparities": 48}) as loc, pytest.raises(StereoInputError, match=match):
         loc(*make(left, right))
 
 
@@ -98,7 +76,7 @@ def test_localizer_bad_images(scene, make, match):
     ({"seed": -1}, "seed"),
 ])
 def test_localizer_bad_arguments(kwargs, match):
-    args = {"rig": _rig(), "detector": None, "params": None}
+    args = {"rig": make_rig(240, 160), "detector": None, "params": None}
     args.update(kwargs)
     rig, det, params = args.pop("rig"), args.pop("detector"), args.pop("params")
     with pytest.raises(ValueError, match=match):
@@ -169,9 +147,9 @@ def test_property_localizer_well_formed_or_value_error(case):
 
     left, right, boxes, ndisp = case
     h, w = left.shape[:2]
-    det = _Boxes(boxes) if boxes else None
+    det = FixedBoxes(boxes) if boxes else None
     try:
-        loc = Localizer(_rig(w, h), det, {"num_disparities": ndisp, "threads": 1})
+        loc = Localizer(make_rig(w, h), det, {"num_disparities": ndisp, "threads": 1})
         result = loc(left, right)
     except ValueError as exc:
         # One line, and either one of the project's error classes or a message naming the parameter in

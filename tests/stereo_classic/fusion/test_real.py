@@ -13,6 +13,7 @@ import pytest
 
 from stereo_classic.fusion import localize, sparse_depth_reference
 from stereo_classic.pipeline import Localizer
+from tests.helpers.detectors import FixedBoxes
 from tests.helpers.scenes import planted_scene
 
 
@@ -69,19 +70,6 @@ def test_motorcycle_within_three_percent_of_fusion_on_ground_truth(detector):
     assert 1.5 < moto.distance_m[0] < 3.5  # a motorbike a couple of metres in front of the camera
 
 
-class _OneBox:
-    """A detector stand-in that always reports one box (the planted object's)."""
-
-    def __init__(self, box):
-        from detectors import Detections
-
-        self.dets = Detections(xyxy=np.array([box], np.float32), confidence=np.array([0.9], np.float32),
-                               class_id=np.array([0]), class_names=("box",))
-
-    def detect(self, image):
-        return self.dets
-
-
 @pytest.mark.parametrize("z_box, z_wall, det_box, min_wall_share", [
     (2.0, 6.0, (100, 60, 200, 140), 0.0),   # tight box
     (3.0, 8.0, (70, 30, 230, 170), 0.6),    # loose box: the wall fills most of it (also after the shrink)
@@ -93,7 +81,8 @@ def test_rendered_planted_object_through_the_matcher(z_box, z_wall, det_box, min
                                               box=(110, 70, 190, 130), seed=3)
     rig = RectifiedRig(focal_px=stand_in.focal_px, cx_left=stand_in.cx_left, cx_right=stand_in.cx_right,
                        cy=stand_in.cy, baseline_m=stand_in.baseline_m, image_size=(300, 200))
-    with Localizer(rig, _OneBox(det_box), {"num_disparities": 64}, concurrent=False) as loc:
+    detector = FixedBoxes([det_box], names=("box",), confidence=0.9)
+    with Localizer(rig, detector, {"num_disparities": 64}, concurrent=False) as loc:
         result = loc(left, right)
     x0, y0, x1, y1 = det_box
     dx, dy = (x1 - x0) // 10, (y1 - y0) // 10  # box_shrink 0.2: 10 % off each side

@@ -20,25 +20,16 @@ from stereo_classic.outputs import (
     write_all_or_nothing,
 )
 from stereo_classic.pipeline import Localizer
+from tests.helpers.detectors import FixedBoxes
 from tests.helpers.scenes import make_rig, planted_scene
-
-
-class _OneBox:
-    def __init__(self, box):
-        from detectors import Detections
-
-        self.dets = Detections(xyxy=np.array([box], np.float32), confidence=np.array([0.9], np.float32),
-                               class_id=np.array([0]), class_names=("box",))
-
-    def detect(self, image):
-        return self.dets
 
 
 @pytest.fixture(scope="module")
 def frame():
     rig = make_rig(240, 160)
     left, right, _, _ = planted_scene(rig=rig, z_box=3.0, z_wall=8.0, box=(80, 50, 160, 110))
-    with Localizer(rig, _OneBox((80, 50, 160, 110)), {"num_disparities": 48}) as loc:
+    detector = FixedBoxes([(80, 50, 160, 110)], names=("box",), confidence=0.9)
+    with Localizer(rig, detector, {"num_disparities": 48}) as loc:
         result = loc(left, right)
     return rig, result
 
