@@ -31,6 +31,7 @@ from stereo_classic.cli.config import (
     merge_config,
 )
 from stereo_classic.cli.errors import UsageError
+from stereo_classic.cli.inputs import Source, add_input_options, open_source
 from stereo_classic.cli.options import add_options, read_options
 from stereo_classic.fusion import FusionInputError, FusionParams, as_generator
 from stereo_classic.matching import SGMParams
@@ -50,19 +51,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Stereo depth + object detection + per-object distance. With no input options the "
                     "built-in demo scene (Middlebury Motorcycle) is used. Options may also come from "
                     "--config FILE.toml (flags win).")
-    src = p.add_argument_group("input (one kind; none = the demo scene)")
-    src.add_argument("--left", nargs="+", metavar="PATH",
-                     help="left image(s) or glob pattern(s), paired in order with --right")
-    src.add_argument("--right", nargs="+", metavar="PATH", help="right image(s) or glob pattern(s)")
-    src.add_argument("--calib", metavar="FILE", help="calibration (OpenCV YAML/XML, KITTI, Middlebury calib.txt, ...)")
-    src.add_argument("--rectify", action="store_true", help="the images are raw: rectify them with --calib")
-    src.add_argument("--dataset", metavar="DIR", help="a dataset folder (Middlebury, KITTI, ...): every scene below it")
-    src.add_argument("--video", metavar="FILE",
-                     help="a side-by-side stereo video (left half = left image); needs --calib")
-    src.add_argument("--camera", type=int, metavar="N", help="live side-by-side stereo camera N; needs --calib")
-    src.add_argument("--max-frames", type=int, default=None, metavar="N", help="stop after N frames (0 = all)")
-    src.add_argument("--scale", type=float, default=None, metavar="F",
-                     help="resize the images by F (e.g. 0.5) before matching")
+    add_input_options(p)
 
     out = p.add_argument_group("output")
     out.add_argument("-o", "--output", default=None, metavar="DIR", help="output folder (default: stereo_out)")
@@ -150,61 +139,6 @@ def _matcher_params(cfg: dict[str, Any], max_disparity: int | None) -> SGMParams
         raise UsageError(f"matcher: {exc}") from None
 
 
-# --------------------------------------------------------------------------------------------------
-# sources and rigs
-# --------------------------------------------------------------------------------------------------
-def _load_rig(path: str, rectify: bool) -> calib.RectifiedRig:
-    rig = calib.load_rig(path)
-    if isinstance(rig, calib.StereoRig):  # raw cameras
-        if not rectify:
-            raise UsageError(f"--calib {path} holds a raw (unrectified) calibration; add --rectify to rectify "
-                             "the images with it")
-        rig = rig.rectify()
-    elif rectify and not rig.has_maps:
-        raise UsageError(f"--rectify: {path} describes an already rectified pair (no distortion or rotation to undo)")
-    return rig
-
-
-def _open_source(args: argparse.Namespace, cfg: dict[str, Any]
-                 ) -> tuple[sources.PairSource | sources.SceneSource | sources.SideBySideSource,
-                            calib.RectifiedRig | None]:
-    kinds = [k for k in ("left", "dataset", "video", "camera") if getattr(args, k) is not None]
-    if args.right is not None and args.left is None:
-        raise UsageError("--right needs --left")
-    if len(kinds) > 1:
-        raise UsageError(f"choose one input: --{kinds[0]} and --{kinds[1]} were both given")
-    max_frames = cfg["max_frames"] or None
-    kind = kinds[0] if kinds else "demo"
-    if kind in ("left", "video", "camera") and not args.calib:
-        raise UsageError(f"--{kind} needs --calib (the stereo calibration)")
-    if kind in ("demo", "dataset") and (args.calib or args.rectify):
-        raise UsageError("--calib/--rectify go with --left/--right, --video or --camera (scenes carry their own)")
-    try:
-        if kind == "left":
-            if args.right is None:
-                raise UsageError("--left needs --right")
-            pairs = sources.expand_pairs(args.left, args.right)
-            if max_frames:
-                pairs = pairs[:max_frames]
-            rig = _load_rig(args.calib, args.rectify)
-            return sources.PairSource(pairs), rig
-        if kind in ("video", "camera"):
-            rig = _load_rig(args.calib, args.rectify)
-            target = args.video if kind == "video" else args.camera
-            return sources.SideBySideSource(target, max_frames=max_frames), rig
-        if kind == "dataset":
-            src = sources.SceneSource.from_folder(args.dataset)
-        else:
-            src = sources.SceneSource.demo()
-    except sources.SourceError as exc:
-        if "matches no file" in str(exc) or "paired in order" in str(exc):
-            raise UsageError(str(exc)) from None
-        raise
-    if max_frames:
-        src.scenes = src.scenes[:max_frames]
-    return src, None
-
-
 def _open_detector(cfg: dict[str, Any]) -> tuple[OnnxDetector | None, str | None]:
     if str(cfg["model"]).lower() in ("none", "off", ""):
         return None, None
@@ -234,15 +168,14 @@ def func(args: argparse.Namespace) -> int:
     if args.dump_config:
         sys.stdout.write(dump_config(cfg))
         return 0
-    source, base_rig = _open_source(args, cfg)
+    source, base_rig = open_source(args, cfg["max_frames"] or None)
     try:
         return _run(args, cfg, source, base_rig)
     finally:
         source.close()
 
 
-def _run(args: argparse.Namespace, cfg: dict[str, Any], source: sources.PairSource | sources.SceneSource
-         | sources.SideBySideSource, base_rig: calib.RectifiedRig | None) -> int:
+def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig: calib.RectifiedRig | None) -> int:
     outdir = Path(cfg["output"])
     if outdir.exists() and not outdir.is_dir():
         raise UsageError(f"-o/--output {outdir} exists and is not a folder")
