@@ -120,7 +120,8 @@ def depth_from_disparity(disparity: Any, focal_px: float, baseline_m: float, dof
     -------
     depth : float32 array, same shape, metres
         NaN where the disparity is not finite, where ``disparity + doffs <= 0`` or where the depth does not fit
-        float32.
+        float32 (too large, or so small that it underflows to a subnormal number or 0: no camera measures
+        1e-38 m, and a subnormal depth does not convert back to its disparity).
 
     Examples
     --------
@@ -135,7 +136,10 @@ def depth_from_disparity(disparity: Any, focal_px: float, baseline_m: float, dof
     denom = d + d.dtype.type(doffs)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         z = np.where(np.isfinite(denom) & (denom > 0), d.dtype.type(focal_px * baseline_m) / denom, d.dtype.type(np.nan))
-    return _finite_float32(np.asarray(z))
+    z = _finite_float32(np.asarray(z))
+    with np.errstate(invalid="ignore"):
+        z[z < np.finfo(np.float32).tiny] = np.nan  # underflow (subnormal or 0) is not a depth
+    return z
 
 
 def disparity_from_depth(depth: Any, focal_px: float, baseline_m: float, doffs: float = 0.0) -> np.ndarray:
