@@ -1,4 +1,12 @@
-"""Finding a model file: explicit path, ``$STEREO_CLASSIC_MODELS``, the user cache, or a checked download."""
+"""Finding a model file: explicit path, ``$STEREO_CLASSIC_MODELS``, the packaged model, the user cache, or a checked
+download.
+
+The default detector, YOLOX-nano (Apache-2.0, Megvii), ships with this package (``detectors/data``), so the
+default works offline; :data:`PACKAGED_MODELS` lists the files shipped.
+
+>>> packaged_model("yolox_nano").name
+'yolox_nano.onnx'
+"""
 
 from __future__ import annotations
 
@@ -12,7 +20,8 @@ from pathlib import Path
 
 from detectors.errors import ModelError, ModelNotFoundError
 
-__all__ = ["KnownModel", "KNOWN_MODELS", "DEFAULT_MODEL", "MODELS_ENV", "cache_dir", "resolve_model", "download_model", "verify_sha256"]
+__all__ = ["KnownModel", "KNOWN_MODELS", "DEFAULT_MODEL", "MODELS_ENV", "PACKAGED_MODELS", "cache_dir", "packaged_model",
+           "resolve_model", "download_model", "verify_sha256"]
 
 MODELS_ENV = "STEREO_CLASSIC_MODELS"
 DEFAULT_MODEL = "yolox_nano"
@@ -36,6 +45,22 @@ KNOWN_MODELS: dict[str, KnownModel] = {
 }
 """Models :func:`resolve_model` may download. Only files whose sha256 is known are listed."""
 
+#: Folder of the model files shipped with the package.
+DATA_DIR = Path(__file__).resolve().parent / "data"
+#: Models shipped with the package: name -> (file in :data:`DATA_DIR`, licence file there).
+PACKAGED_MODELS: dict[str, tuple[str, str]] = {
+    "yolox_nano": ("yolox_nano.onnx", "LICENSE_yolox_nano_Apache-2.0.txt"),
+}
+
+
+def packaged_model(name: str = DEFAULT_MODEL) -> Path | None:
+    """The shipped file of model ``name``, or None when the package does not hold it."""
+    entry = PACKAGED_MODELS.get(name)
+    if entry is None:
+        return None
+    path = DATA_DIR / entry[0]
+    return path if path.is_file() else None
+
 
 def cache_dir() -> Path:
     """``$XDG_CACHE_HOME/stereo_classic/models`` (default ``~/.cache/stereo_classic/models``)."""
@@ -58,8 +83,9 @@ def _sha256(path: Path) -> str:
 def resolve_model(name_or_path: str | os.PathLike | None = None, *, download: bool = True) -> Path:
     """Where the model file is.
 
-    Order: an existing path; ``$STEREO_CLASSIC_MODELS/<name>.onnx``; the user cache
-    (:func:`cache_dir`) ``<name>.onnx``; a download of the official file (only names in
+    Order: an existing path; ``$STEREO_CLASSIC_MODELS/<name>.onnx`` (a folder the user chose wins over what
+    ships); the file shipped with the package (:data:`PACKAGED_MODELS`: ``yolox_nano``, the default); the user
+    cache (:func:`cache_dir`) ``<name>.onnx``; a download of the official file (only names in
     :data:`KNOWN_MODELS`, sha256 checked) into the cache.
 
     Parameters
@@ -95,6 +121,9 @@ def resolve_model(name_or_path: str | os.PathLike | None = None, *, download: bo
     env = os.environ.get(MODELS_ENV)
     if env:
         candidates.append(Path(env).expanduser() / f"{name}.onnx")
+    shipped = packaged_model(name)
+    if shipped is not None:
+        candidates.append(shipped)
     cached = cache_dir() / f"{name}.onnx"
     candidates.append(cached)
     for c in candidates:
@@ -102,11 +131,13 @@ def resolve_model(name_or_path: str | os.PathLike | None = None, *, download: bo
             return c
     where = f"put {name}.onnx in {cached.parent} or set {MODELS_ENV} to the folder holding it"
     known = KNOWN_MODELS.get(name)
+    if known is not None:
+        where += f", or run `python -m detectors fetch {name}` where the network is reachable"
     if known is None:
         raise ModelNotFoundError(f"model {name!r} not found: {where} (no official download for this name; "
                                  f"known: {', '.join(sorted(KNOWN_MODELS))})")
     if not download:
-        raise ModelNotFoundError(f"model {name!r} not found: {where} (or run `python -m detectors fetch {name}`)")
+        raise ModelNotFoundError(f"model {name!r} not found: {where}")
     try:
         return download_model(name)
     except OSError as exc:

@@ -145,7 +145,10 @@ def _open_detector(cfg: dict[str, Any]) -> tuple[OnnxDetector | None, str | None
     try:
         path = resolve_model(cfg["model"])
     except ModelNotFoundError as exc:
-        log.warning("no detector, computing depth only: %s", str(exc).splitlines()[0])
+        hint = str(exc).splitlines()[0]
+        if "python -m detectors fetch" not in hint:
+            hint += "; `python -m detectors fetch` downloads the official models"
+        log.warning("no detector, computing depth only: %s", hint)
         return None, None
     kwargs: dict[str, Any] = {"conf_threshold": cfg["conf"], "iou_threshold": cfg["iou"]}
     if cfg["threads"] > 0:

@@ -91,6 +91,42 @@ def test_default_is_yolox_nano(yolox_nano, monkeypatch):
     assert resolve_model() == yolox_nano
 
 
+def test_packaged_model_is_the_official_file():
+    shipped = models.packaged_model("yolox_nano")
+    assert shipped is not None and shipped.parent == models.DATA_DIR
+    assert models.verify_sha256(shipped, KNOWN_MODELS["yolox_nano"].sha256)
+    assert hashlib.sha256(shipped.read_bytes()).hexdigest() == (
+        "695e750a5d5754bb5a8d5325643b59282191a7e7a564e435a415fd3c578eab14")
+    licence = models.DATA_DIR / models.PACKAGED_MODELS["yolox_nano"][1]
+    assert "Apache License" in licence.read_text() and "Version 2.0" in licence.read_text()
+    assert models.packaged_model("nanodet_m_320") is None
+
+
+def test_packaged_model_found_offline_before_the_cache(isolated, monkeypatch):
+    shipped = models.packaged_model("yolox_nano")
+
+    def no_network(*args, **kwargs):  # pragma: no cover - failing here is the test failing
+        raise AssertionError("resolve_model must not download when the package holds the model")
+
+    monkeypatch.setattr(models, "download_model", no_network)
+    assert resolve_model() == shipped and resolve_model("yolox_nano") == shipped
+    cache = cache_dir()
+    cache.mkdir(parents=True)
+    (cache / "yolox_nano.onnx").write_bytes(b"stale cache copy")
+    assert resolve_model() == shipped  # the shipped file wins over the cache
+
+
+def test_a_model_the_user_names_wins_over_the_packaged_one(isolated, monkeypatch, tmp_path):
+    env_dir = tmp_path / "env"
+    env_dir.mkdir()
+    (env_dir / "yolox_nano.onnx").write_bytes(b"user's own")
+    monkeypatch.setenv("STEREO_CLASSIC_MODELS", str(env_dir))
+    assert resolve_model() == env_dir / "yolox_nano.onnx"
+    own = tmp_path / "mine.onnx"
+    own.write_bytes(b"x")
+    assert resolve_model(own) == own and resolve_model(str(own)) == own
+
+
 def test_unknown_name_one_line_error(isolated):
     with pytest.raises(ModelNotFoundError) as info:
         resolve_model("no_such_model")
@@ -132,6 +168,8 @@ def test_offline_error_is_one_line(isolated, server, where):
     assert list(cache_dir().iterdir()) == []
     with pytest.raises(ModelNotFoundError, match="python -m detectors fetch tiny"):
         resolve_model("tiny", download=False)
+    with pytest.raises(ModelNotFoundError, match="python -m detectors fetch tiny"):
+        resolve_model("tiny")  # the failed download names the command too
 
 
 def test_download_unknown_name():
