@@ -20,8 +20,8 @@ from pathlib import Path
 
 from detectors.errors import ModelError, ModelNotFoundError
 
-__all__ = ["KnownModel", "KNOWN_MODELS", "DEFAULT_MODEL", "MODELS_ENV", "PACKAGED_MODELS", "cache_dir", "packaged_model",
-           "resolve_model", "download_model", "verify_sha256"]
+__all__ = ["DEFAULT_MODEL", "KNOWN_MODELS", "MODELS_ENV", "PACKAGED_MODELS", "KnownModel", "cache_dir", "download_model",
+           "packaged_model", "resolve_model", "verify_sha256"]
 
 MODELS_ENV = "STEREO_CLASSIC_MODELS"
 DEFAULT_MODEL = "yolox_nano"

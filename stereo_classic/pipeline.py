@@ -95,7 +95,7 @@ class Localizer:
     Examples
     --------
     Depth only (no detector) on the built-in demo scene; with ``detector="yolox_nano"`` the result's
-    ``objects.format_table()`` reads like "car 0.91 12.40 m x=-1.20 y=+0.80 z=12.40 slightly left".
+    ``objects.format_table()`` is a table with a header: label, confidence, distance, x/y/z (m), direction.
 
     >>> from stereo_classic.datasets import demo_scene
     >>> scene = demo_scene()

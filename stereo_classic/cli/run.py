@@ -34,6 +34,7 @@ from stereo_classic.cli.errors import UsageError
 from stereo_classic.cli.inputs import Source, add_input_options, open_source
 from stereo_classic.cli.options import add_options, read_options
 from stereo_classic.fusion import FusionInputError, FusionParams, as_generator
+from stereo_classic.fusion.objects import TABLE_COLUMNS
 from stereo_classic.matching import SGMParams
 from stereo_classic.outputs import SAVE_KINDS, FrameWriter
 from stereo_classic.pipeline import PipelineResult, format_timings
@@ -190,9 +191,14 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
     detector, detector_name = _open_detector(cfg)
     quiet = getattr(args, "quiet", False)
 
+    header_shown = []
+
     def show(frame: sources.Frame, result: PipelineResult) -> None:
-        table = result.objects.format_table()
+        table = result.objects.format_table(header=not sequence)
         if sequence:
+            if not header_shown and detector is not None:  # the columns, once: "[frame] label confidence ..."
+                tqdm.write("[frame] " + "  ".join(TABLE_COLUMNS), file=sys.stdout)
+                header_shown.append(True)
             text = f"[{frame.name}] " + ("; ".join(table.splitlines()) if table else "no objects")
         else:
             text = table if table else ("no objects found" if detector is not None else "depth only (no detector)")

@@ -9,8 +9,9 @@ the result). ``reference`` judges the result against sparse LiDAR depth.
 >>> from stereo_classic.fusion import FusionParams, localize
 >>> rig = SimpleNamespace(focal_px=500.0, baseline_m=0.1, doffs=0.0, cx_left=20.0, cy=15.0, image_size=(40, 30))
 >>> objs = localize([[24, 6, 40, 25]], np.full((30, 40), 10.0), rig, FusionParams(box_shrink=0.1))
->>> objs.format_table()
-'object 1.00 5.00 m x=+0.12 y=+0.00 z=5.00 ahead'
+>>> print(objs.format_table())
+label   confidence  distance  x (m)  y (m)  z (m)  direction
+object        1.00    5.00 m  +0.12  +0.00   5.00  ahead
 """
 
 from __future__ import annotations

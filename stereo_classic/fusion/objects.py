@@ -15,7 +15,10 @@ import numpy as np
 
 from stereo_classic.fusion.params import METHODS, FusionInputError
 
-__all__ = ["LocalizedObjects", "STATUSES", "direction_phrase"]
+__all__ = ["STATUSES", "TABLE_COLUMNS", "LocalizedObjects", "direction_phrase"]
+
+#: The header of :meth:`LocalizedObjects.format_table`.
+TABLE_COLUMNS: tuple[str, ...] = ("label", "confidence", "distance", "x (m)", "y (m)", "z (m)", "direction")
 
 #: Every value ``LocalizedObjects.status`` can take.
 STATUSES: tuple[str, ...] = ("ok", "empty_box", "too_few_depth_pixels", "out_of_range", "no_consensus")
@@ -172,15 +175,34 @@ class LocalizedObjects:
             })
         return out
 
-    def format_table(self) -> str:
-        """Human-readable lines: "motorcycle 0.88 2.21 m x=-0.12 y=0.05 z=2.21 slightly left"."""
-        lines = []
+    def format_table(self, *, header: bool = True) -> str:
+        """A table for people: a header line, then one aligned row per object ("" when there are none).
+
+        Columns: ``label``, ``confidence`` (detector score), ``distance`` (metres along the optical axis),
+        ``x (m)``, ``y (m)``, ``z (m)`` (centroid in the left rectified camera frame: x right, y down, z
+        forward) and ``direction`` ("ahead", "slightly left", ...). An object without a distance shows ``?``
+        and its status in the direction column. ``header=False`` leaves the header line out.
+
+        >>> objs = LocalizedObjects.empty()
+        >>> objs.format_table()
+        ''
+        """
+        if len(self) == 0:
+            return ""
+        rows = []
         for i in range(len(self)):
-            head = f"{self.labels[i]} {float(self.confidence[i]):.2f}"
+            conf = f"{float(self.confidence[i]):.2f}"
             if self.status[i] == "ok":
                 x, y, z = self.xyz[i]
-                phrase = direction_phrase(self.xyz[i])
-                lines.append(f"{head} {self.distance_m[i]:.2f} m x={x:+.2f} y={y:+.2f} z={z:.2f} {phrase}".rstrip())
+                rows.append((self.labels[i], conf, f"{self.distance_m[i]:.2f} m", f"{x:+.2f}", f"{y:+.2f}",
+                             f"{z:.2f}", direction_phrase(self.xyz[i])))
             else:
-                lines.append(f"{head} distance unknown ({self.status[i].replace('_', ' ')})")
+                rows.append((self.labels[i], conf, "?", "", "", "",
+                             f"distance unknown ({self.status[i].replace('_', ' ')})"))
+        table = ([TABLE_COLUMNS] if header else []) + rows
+        widths = [max(len(r[c]) for r in table) for c in range(len(TABLE_COLUMNS) - 1)]
+        lines = []
+        for r in table:
+            cells = [r[0].ljust(widths[0])] + [r[c].rjust(widths[c]) for c in range(1, len(widths))] + [r[-1]]
+            lines.append("  ".join(cells).rstrip())
         return "\n".join(lines)

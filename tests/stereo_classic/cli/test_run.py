@@ -85,7 +85,9 @@ def test_demo_prints_the_table_and_writes_every_output(tmp_path, shared_models, 
     out = tmp_path / "stereo_out"
     assert main(["run", "-o", str(out), "--ply"]) == 0
     stdout = capsys.readouterr().out
-    assert "motorcycle 0.9" in stdout and " m x=" in stdout
+    header, *rows = stdout.splitlines()[:2]
+    assert header.split() == ["label", "confidence", "distance", "x", "(m)", "y", "(m)", "z", "(m)", "direction"]
+    assert rows[0].split()[:2] == ["motorcycle", "0.90"] and rows[0].split()[3] == "m"
     record = _check_outputs(out, "motorcycle_skimage", (500, 741))
     moto = [o for o in record["objects"] if o["label"] == "motorcycle"]
     assert len(moto) == 1 and moto[0]["status"] == "ok" and 1.5 < moto[0]["distance_m"] < 3.5

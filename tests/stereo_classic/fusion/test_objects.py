@@ -31,3 +31,18 @@ def test_direction_phrase():
     assert direction_phrase([0.5, 0.0, 3.0]) == "slightly right"
     assert direction_phrase([3.0, 0.0, 3.0]) == "right"
     assert direction_phrase([np.nan, 0.0, 3.0]) == ""
+
+
+def test_format_table_has_a_header_and_aligned_columns():
+    from stereo_classic.fusion.objects import TABLE_COLUMNS
+
+    rig = make_rig(40, 30, focal_px=500.0, baseline_m=0.1)
+    d = np.full((30, 40), 10.0, np.float32)
+    objs = localize(np.array([[0, 0, 20, 20], [50, 50, 60, 60]]), d, rig)
+    lines = objs.format_table().splitlines()
+    assert len(lines) == 3
+    assert lines[0].startswith("label") and all(c in lines[0] for c in TABLE_COLUMNS)
+    assert lines[0].index("direction") == lines[1].index("ahead") == lines[2].index("distance unknown")
+    assert lines[1].split()[:4] == ["object", "1.00", "5.00", "m"] and "?" in lines[2].split()
+    assert [r.split() for r in objs.format_table(header=False).splitlines()] == [r.split() for r in lines[1:]]
+    assert LocalizedObjects.empty().format_table() == ""
