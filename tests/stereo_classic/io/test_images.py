@@ -81,3 +81,49 @@ def test_write_image_errors_leave_nothing(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError, match="does not exist"):
         write_image(tmp_path / "no" / "dir.png", img)
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def _png_header_only(width: int, height: int) -> bytes:
+    import struct
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(b"\0" * 64)) + chunk(b"IEND", b"")
+
+
+def test_image_too_large_to_decode_says_so_with_its_size(tmp_path: Path, capfd) -> None:
+    path = tmp_path / "huge.png"
+    path.write_bytes(_png_header_only(40000, 40000))
+    with pytest.raises(FileFormatError, match=r"too large to decode \(40000 x 40000 = 1600000000 pixels"):
+        read_image(path)
+    path.write_bytes(_png_header_only(2_000_000, 1))  # few pixels, but wider than OpenCV decodes
+    with pytest.raises(FileFormatError, match="too large to decode"):
+        read_image(path)
+    assert capfd.readouterr().err == ""
+
+
+def test_decoder_noise_goes_into_the_message_not_the_terminal(tmp_path: Path, capfd) -> None:
+    rng = np.random.default_rng(0)
+    write_image(tmp_path / "ok.png", rng.integers(0, 256, (40, 50, 3), dtype=np.uint8))
+    good = (tmp_path / "ok.png").read_bytes()
+    broken = bytearray(good)
+    broken[100:120] = b"\xff" * 20  # inside the compressed pixels: libpng complains on stderr by itself
+    (tmp_path / "crc.png").write_bytes(bytes(broken))
+    (tmp_path / "short.png").write_bytes(good[: len(good) // 2])
+    for name in ("crc.png", "short.png"):
+        with pytest.raises(FileFormatError, match=f"cannot decode image .*{name}.*the decoder said: .+"):
+            read_image(tmp_path / name)
+    assert capfd.readouterr().err == ""  # nothing reached the terminal before the error
+
+
+def test_header_size_of_the_common_formats(tmp_path: Path) -> None:
+    from stereo_classic.io.images import header_size
+
+    img = np.zeros((17, 29, 3), np.uint8)
+    for ext in (".png", ".jpg", ".bmp"):
+        write_image(tmp_path / f"a{ext}", img)
+        assert header_size((tmp_path / f"a{ext}").read_bytes()) == (29, 17), ext
+    assert header_size(b"not an image") is None and header_size(b"") is None
