@@ -18,7 +18,8 @@ from calib.features import vertical_offset
 from calib.formats import kitti, middlebury, oakd, opencv
 from calib.geometry import check_finite, check_image_size, depth_from_disparity, disparity_from_depth, points_from_disparity
 
-__all__ = ["RectifiedRig", "RectificationWarning", "check_image_size", "FOCAL_RANGE_PX", "BASELINE_RANGE_M"]
+__all__ = ["BASELINE_RANGE_M", "FOCAL_RANGE_PX", "MAX_FOV_DEG", "RectificationWarning", "RectifiedRig",
+           "check_image_size", "check_intrinsics"]
 
 log = logging.getLogger(__name__)
 
@@ -29,6 +30,55 @@ VERTICAL_OFFSET_WARN_PX = 1.0
 #: Plausible ranges; values outside them are refused (they make Q overflow or are unit mistakes).
 FOCAL_RANGE_PX = (1e-3, 1e8)
 BASELINE_RANGE_M = (1e-6, 1e4)
+
+
+#: Widest horizontal/vertical field of view a pinhole (rectified) camera can have, degrees: a focal length
+#: below ``size / (2 tan(MAX_FOV_DEG / 2))`` (2.2 % of the image width) is a unit or scaling mistake.
+MAX_FOV_DEG = 175.0
+
+
+def check_intrinsics(fx: float, fy: float, principal: dict[str, float], image_size: tuple[int, int],
+                     *, name: str = "focal_px") -> None:
+    """CalibrationError unless the focal lengths and principal point(s) are plausible for ``image_size``.
+
+    The field of view must be below :data:`MAX_FOV_DEG` (fx >= 2.2 % of the width, fy of the height), and
+    every principal point must lie within half an image of the image: ``-W/2 <= cx <= 3W/2`` and
+    ``-H/2 <= cy <= 3H/2``. Outside these, every depth would be wrong (or every box out of view).
+
+    Parameters
+    ----------
+    fx, fy : float, pixels
+    principal : dict
+        Principal point coordinates by name, e.g. ``{"cx_left": 320.0, "cy": 240.0}``; names containing
+        "cx" are checked against the width, the others against the height.
+    image_size : (width, height)
+    name : str
+        How the focal length is named in the message.
+
+    Examples
+    --------
+    >>> check_intrinsics(0.001, 0.001, {}, (640, 480))
+    Traceback (most recent call last):
+    ...
+    calib.errors.CalibrationError: `focal_px` = 0.001 px is implausible for 640x480 images: a field of view over 175 degrees needs focal_px >= 14 px (is the calibration for another image size or unit?)
+    """
+    width, height = image_size
+    tan = math.tan(math.radians(MAX_FOV_DEG / 2.0))
+    for f, extent in ((fx, width), (fy, height)):
+        least = extent / (2.0 * tan)
+        if f < least:
+            raise CalibrationError(
+                f"`{name}` = {f:g} px is implausible for {width}x{height} images: a field of view over "
+                f"{MAX_FOV_DEG:g} degrees needs {name} >= {least:.2g} px (is the calibration for another image "
+                "size or unit?)")
+    for key, value in principal.items():
+        extent = width if "cx" in key else height
+        lo, hi = -extent / 2.0, 1.5 * extent
+        if not lo <= value <= hi:
+            raise CalibrationError(
+                f"`{key}` = {value:g} px is outside the plausible range [{lo:g}, {hi:g}] px for {width}x{height} "
+                "images (the principal point lies near the image centre): is the calibration for another image "
+                "size?")
 
 
 class RectificationWarning(UserWarning):
@@ -117,6 +167,9 @@ class RectifiedRig:
             object.__setattr__(self, name, _num(name))
         size = check_image_size("image_size", self.image_size)
         object.__setattr__(self, "image_size", size)
+        # the left camera's principal point (boxes and X, Y are in its pixels); cx_right only enters as doffs,
+        # which a cropped rectification can make large
+        check_intrinsics(self.focal_px, self.focal_px, {"cx_left": self.cx_left, "cy": self.cy}, size)
         if (self.maps_left is None) != (self.maps_right is None):
             raise CalibrationError("`maps_left` and `maps_right` must both be given or both be None")
         object.__setattr__(self, "maps_left", _check_maps("maps_left", self.maps_left, size))

@@ -14,7 +14,12 @@ import numpy as np
 from calib.errors import CalibrationError, prefix_errors
 from calib.formats import kitti, opencv, ros
 from calib.geometry import check_image_size
-from calib.rectified import BASELINE_RANGE_M, FOCAL_RANGE_PX, RectifiedRig
+from calib.rectified import (
+    BASELINE_RANGE_M,
+    FOCAL_RANGE_PX,
+    RectifiedRig,
+    check_intrinsics,
+)
 
 __all__ = ["StereoRig"]
 
@@ -129,6 +134,10 @@ class StereoRig:
             raise CalibrationError(f"`T` has length {np.linalg.norm(t):g} m, outside the plausible range [{lo:g}, {hi:g}] m")
         object.__setattr__(self, "T", t)
         object.__setattr__(self, "image_size", check_image_size("image_size", self.image_size))
+        for name in ("K_left", "K_right"):
+            k = getattr(self, name)
+            check_intrinsics(k[0, 0], k[1, 1], {f"{name}[0,2] (cx)": k[0, 2], f"{name}[1,2] (cy)": k[1, 2]},
+                             self.image_size, name=f"{name} focal length")
         if self.baseline_m > 10.0:
             log.warning("baseline of %.3f m is unusually large: is T in millimetres? calib works in metres", self.baseline_m)
 

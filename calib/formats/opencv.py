@@ -71,7 +71,9 @@ class OpenCVStorage:
             try:
                 fs = cv2.FileStorage(variant, cv2.FILE_STORAGE_READ | cv2.FILE_STORAGE_MEMORY)
             except (cv2.error, SystemError) as exc:  # cv2 raises SystemError on some parse errors
-                errors.append(str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__)
+                last = str(exc).strip().splitlines()[-1] if str(exc).strip() else ""
+                # keep OpenCV's parser message ("Parsing error ... line 3"), not Python binding noise
+                errors.append(last if isinstance(exc, cv2.error) and last else "a parse error")
                 continue
             if fs.isOpened():
                 self.fs = fs

@@ -11,6 +11,10 @@ from calib.formats.opencv import read_keys
 
 __all__ = ["FormatName", "sniff_format"]
 
+_EXPECTED = "expected OpenCV YAML/XML with K1/D1/K2/D2/R/T or P1/P2/Q, KITTI, Middlebury calib.txt or OAK-D JSON"
+# a YAML mapping key at the start of a line ("K1: !!opencv-matrix", "image_width: 640")
+_YAML_KEY_RE = re.compile(r"^[A-Za-z_][\w.-]*\s*:(\s|$)", re.MULTILINE)
+
 #: What :func:`sniff_format` answers.
 FormatName = Literal["oakd", "middlebury", "kitti", "opencv_stereo", "opencv_rectified"]
 
@@ -40,6 +44,10 @@ def sniff_format(path: PathLike) -> FormatName:
         return "middlebury"
     if not head.startswith(("%YAML", "<")) and re.search(r"^(P_rect_0\d|P\d):[ \t]*[-+.\d]", text, re.MULTILINE):
         return "kitti"
+    if not head.startswith(("%YAML", "<", "---")) and not _YAML_KEY_RE.search(text):
+        first = head.splitlines()[0][:60] if head else ""
+        raise CalibrationError(
+            f"{p}: not a calibration file: {_EXPECTED}; its first line is {first!r}")
     keys = read_keys(p)
     if any(k in keys for k in ("K1", "M1", "cameraMatrix1", "camera_matrix_left")):
         return "opencv_stereo"
@@ -47,7 +55,4 @@ def sniff_format(path: PathLike) -> FormatName:
         return "opencv_rectified"
     if "camera_matrix" in keys:
         raise CalibrationError(f"{p}: a ROS camera_info file describes one camera: use StereoRig.from_ros(left_yaml, right_yaml)")
-    raise CalibrationError(
-        f"{p}: unrecognised calibration file (expected OpenCV K1/D1/K2/D2/R/T or P1/P2/Q, KITTI, Middlebury or OAK-D JSON); "
-        f"keys found: {', '.join(keys[:10])}"
-    )
+    raise CalibrationError(f"{p}: unrecognised calibration file ({_EXPECTED}); keys found: {', '.join(keys[:10])}")

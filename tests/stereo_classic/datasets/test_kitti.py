@@ -87,7 +87,8 @@ def test_velodyne_reader_counts(shared_data: Path, tmp_path: Path) -> None:
         read_velodyne(tmp_path / "none.bin")
 
 
-def _kitti_rect_calib(path: Path, f: float = 721.5377, cx: float = 609.5593, cy: float = 172.854, tx: float = -387.5744) -> None:
+def _kitti_rect_calib(path: Path, f: float = 721.5377, cx: float = 14.5, cy: float = 9.5, tx: float = -387.5744) -> None:
+    # KITTI's focal length and baseline on 30x20 images: the principal point must be inside them (calib checks)
     p2 = f"{f} 0 {cx} 0 0 {f} {cy} 0 0 0 1 0"
     p3 = f"{f} 0 {cx} {tx} 0 {f} {cy} 0 0 0 1 0"
     path.write_text(f"calib_time: 09-Jan-2012 13:57:47\nS_rect_02: 30 20\nP_rect_02: {p2}\nP_rect_03: {p3}\n")
