@@ -18,6 +18,7 @@ import glob
 import logging
 import os
 import re
+import unicodedata
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -70,21 +71,56 @@ class Frame:
     max_disparity: int | None = None
 
 
+#: Characters no file system (Windows, macOS, Linux) takes in a file name, and control characters.
+_UNSAFE = re.compile(r'[<>:"/\\|?*\x00-\x1f\x7f]+')
+#: Names Windows reserves for devices, with or without an extension.
+_RESERVED = re.compile(r"(CON|PRN|AUX|NUL|COM[0-9]|LPT[0-9])(\..*)?", re.IGNORECASE)
+#: Longest frame name in UTF-8 bytes: room for the longest output suffix within a 255-byte file name.
+_MAX_NAME_BYTES = 200
+
+
 def _safe_name(text: str) -> str:
-    name = re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("._")
+    """The input's stem as a file-name-safe frame name: letters of any script, digits, spaces and punctuation
+    survive; only characters unsafe for file systems (``<>:"/\\|?*``, control characters) become ``_``.
+
+    >>> _safe_name("Straße 1"), _safe_name("左 image"), _safe_name("a:b*c"), _safe_name("con"), _safe_name("..")
+    ('Straße 1', '左 image', 'a_b_c', 'con_', 'frame')
+    """
+    name = _UNSAFE.sub("_", unicodedata.normalize("NFC", text)).strip(" ._")
+    while len(name.encode("utf-8")) > _MAX_NAME_BYTES:
+        name = name[:-1]
+    name = name.rstrip(" .")
+    if _RESERVED.fullmatch(name):
+        name += "_"
     return name or "frame"
 
 
 def _unique(names: Sequence[str]) -> list[str]:
-    seen: dict[str, int] = {}
+    """Names made unique by ``_1``, ``_2``, ...; names that differ only in case collide too (macOS and Windows
+    file systems do not tell them apart), and a suffixed name never takes a name that is already given.
+
+    >>> _unique(["a", "a", "A", "a_1"])
+    ['a', 'a_2', 'A_3', 'a_1']
+    """
+    taken = {n.casefold() for n in names}
+    used: set[str] = set()
+    counts: dict[str, int] = {}
     out = []
     for n in names:
-        if n in seen:
-            seen[n] += 1
-            out.append(f"{n}_{seen[n]}")
-        else:
-            seen[n] = 0
+        key = n.casefold()
+        if key not in used:
+            used.add(key)
             out.append(n)
+            continue
+        k = counts.get(key, 0)
+        while True:
+            k += 1
+            candidate = f"{n}_{k}"
+            if candidate.casefold() not in used and candidate.casefold() not in taken:
+                break
+        counts[key] = k
+        used.add(candidate.casefold())
+        out.append(candidate)
     return out
 
 
@@ -109,14 +145,22 @@ def expand_pairs(left: Sequence[str | os.PathLike[str]],
     Raises
     ------
     SourceError
-        An empty glob, or different numbers of left and right files.
+        An empty glob, or different numbers of left and right files (the images without a partner are named).
     FileNotFoundError
-        A named (non-glob) file that does not exist.
+        A named (non-glob) file that does not exist, or a directory given where image files belong.
     """
     lefts, rights = _expand(left, "--left"), _expand(right, "--right")
+    for option, paths in (("--left", lefts), ("--right", rights)):
+        for p in paths:
+            if p.is_dir():
+                raise FileNotFoundError(f"{option} {p} is a directory, expected image files (or a quoted glob "
+                                        f"such as '{p / '*.png'}')")
     if len(lefts) != len(rights):
-        raise SourceError(f"--left gives {len(lefts)} file(s) but --right gives {len(rights)}; "
-                          "they are paired in order")
+        n = min(len(lefts), len(rights))
+        side, other, extra = ("left", "right", lefts[n:]) if len(lefts) > n else ("right", "left", rights[n:])
+        shown = ", ".join(str(p) for p in extra[:5]) + (f" and {len(extra) - 5} more" if len(extra) > 5 else "")
+        raise SourceError(f"--left gives {len(lefts)} file(s) but --right gives {len(rights)}; they are paired in "
+                          f"order, so these {side} image(s) have no {other} image: {shown}")
     if not lefts:
         raise SourceError("no stereo pairs given (--left/--right are empty)")
     for p in lefts + rights:

@@ -49,4 +49,4 @@ def demo_scene() -> Scene:
         baseline_m=DEMO_BASELINE_M,
         image_size=(w, h),
     )
-    return Scene("motorcycle (skimage)", left, right, gt, None, rig, None, _range_from_gt(gt), None, "demo", None)
+    return Scene("motorcycle_skimage", left, right, gt, None, rig, None, _range_from_gt(gt), None, "demo", None)

@@ -74,3 +74,29 @@ def test_scene_source_dataset_folder(shared_data):
         SceneSource([])
 
 
+
+
+def test_names_keep_letters_and_spaces_and_replace_only_unsafe_characters(tmp_path):
+    from stereo_classic.sources import PairSource
+
+    stems = ["Straße links", "左 image", "a:b*c?", "café", "CAFÉ", "café_1", " .hidden", "x" * 300, "NUL"]
+    pairs = [(tmp_path / f"{s}.png", tmp_path / "r.png") for s in stems]
+    names = PairSource(pairs).names
+    assert names[:4] == ["Straße links", "左 image", "a_b_c", "café"]
+    assert names[4] == "CAFÉ_2" and names[5] == "café_1"  # case-insensitive collision; never reuses a given name
+    assert names[6] == "hidden" and len(names[7].encode()) <= 200 and names[8] == "NUL_"
+    assert len({n.casefold() for n in names}) == len(names)
+    for n in names:  # every name makes a file on this file system
+        (tmp_path / f"{n}_boxes.png").write_bytes(b"x")
+
+
+def test_expand_pairs_names_the_real_cause(tmp_path):
+    from stereo_classic.sources import SourceError, expand_pairs
+
+    for i in range(3):
+        (tmp_path / f"l{i}.png").write_bytes(b"x")
+    (tmp_path / "r0.png").write_bytes(b"x")
+    with pytest.raises(FileNotFoundError, match=r"--left .* is a directory, expected image files"):
+        expand_pairs([str(tmp_path)], [str(tmp_path / "r0.png")])
+    with pytest.raises(SourceError, match=r"these left image\(s\) have no right image: .*l1.png, .*l2.png"):
+        expand_pairs([str(tmp_path / "l*.png")], [str(tmp_path / "r*.png")])
