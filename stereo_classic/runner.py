@@ -23,12 +23,14 @@ Examples
 
 from __future__ import annotations
 
+import dataclasses
+import logging
 import signal
 import sys
 import threading
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Self
 
 import cv2
 import numpy as np
@@ -39,11 +41,30 @@ from stereo_classic.fusion import FusionParams
 from stereo_classic.matching import SGMParams
 from stereo_classic.outputs import FrameWriter, frame_record
 from stereo_classic.pipeline import Localizer, PipelineResult
-from stereo_classic.sources import Frame, PairSource, SceneSource, SideBySideSource
+from stereo_classic.sources import (
+    Frame,
+    FrameRef,
+    PairSource,
+    SceneSkipped,
+    SceneSource,
+    SideBySideSource,
+)
 
-__all__ = ["RunSummary", "run_source", "scale_pair"]
+__all__ = ["ON_ERROR", "DetectorSpec", "FrameOutput", "FrameProcessor", "RunSummary", "Terminated", "run_source",
+           "scale_pair"]
+
+log = logging.getLogger("stereo_classic.run")
 
 Source = PairSource | SceneSource | SideBySideSource
+
+
+#: What ``on_error`` can be: "stop" (the first failing frame ends the run with its error) or "skip" (it is recorded
+#: in :attr:`RunSummary.failed` and the run goes on).
+ON_ERROR = ("stop", "skip")
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (``timeout``, systemd, ``docker stop``) arrived: handled as Ctrl-C is, with its own exit code."""
 
 
 @dataclass
@@ -55,37 +76,87 @@ class RunSummary:
     frames, objects, skipped : int
         Frames processed and written, objects found in them, finished frames skipped (resume).
     interrupted : bool
-        Ctrl-C ended the run; the frame in progress was not written.
+        Ctrl-C (or SIGTERM) ended the run; the frame in progress was not written.
+    signal : str or None
+        "SIGINT" or "SIGTERM" when interrupted.
     timings_ms : list of dict
         ``PipelineResult.timings_ms`` of every processed frame.
+    failed : list of (name, error)
+        Frames that failed and were skipped (``on_error="skip"``).
+    skipped_scenes : list of str
+        Scenes read but not measured (no calibration), one line each.
+    workers : dict
+        Per worker (executor "dask"): ``{address: [frames, busy seconds]}``.
     """
 
     frames: int = 0
     objects: int = 0
     skipped: int = 0
     interrupted: bool = False
+    signal: str | None = None
     timings_ms: list[dict[str, float]] = field(default_factory=list)
+    failed: list[tuple[str, str]] = field(default_factory=list)
+    skipped_scenes: list[str] = field(default_factory=list)
+    workers: dict[str, list[float]] = field(default_factory=dict)
+
+
+def _raise_signal(signum: int) -> None:
+    raise Terminated if signum == signal.SIGTERM else KeyboardInterrupt
 
 
 class _DeferInterrupt:
-    """Hold Ctrl-C while one frame's files are written, then raise it: a frame is all or nothing."""
+    """Hold Ctrl-C and SIGTERM while one frame's files are written, then raise: a frame is all or nothing."""
 
-    def __enter__(self) -> _DeferInterrupt:
-        self.received = False
+    def __enter__(self) -> Self:
+        self.received: int | None = None
         self.active = threading.current_thread() is threading.main_thread()
         if self.active:
-            self.previous = signal.getsignal(signal.SIGINT)
-            signal.signal(signal.SIGINT, self._handler)
+            self.previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+            for s in self.previous:
+                signal.signal(s, self._handler)
         return self
 
     def _handler(self, signum: int, frame: Any) -> None:
-        self.received = True
+        self.received = signum
 
-    def __exit__(self, *exc: Any) -> None:
+    def __exit__(self, *exc: object) -> None:
         if self.active:
-            signal.signal(signal.SIGINT, self.previous)
-            if self.received and exc[0] is None:
-                raise KeyboardInterrupt
+            for s, handler in self.previous.items():
+                signal.signal(s, handler)
+            if self.received is not None and exc[0] is None:
+                _raise_signal(self.received)
+
+
+class _TermAsInterrupt:
+    """For the length of a run, SIGTERM raises :class:`Terminated` (a KeyboardInterrupt) in the main thread, so it
+    ends a run as Ctrl-C does: nothing half written, a summary, its own exit code (143)."""
+
+    def __enter__(self) -> Self:
+        self.active = threading.current_thread() is threading.main_thread()
+        if self.active:
+            self.previous = signal.getsignal(signal.SIGTERM)
+            signal.signal(signal.SIGTERM, lambda signum, frame: _raise_signal(signum))
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.active:
+            signal.signal(signal.SIGTERM, self.previous)
+
+
+@dataclass(frozen=True)
+class DetectorSpec:
+    """An ONNX detector described, not opened: what travels to a worker, which opens it once (``open()``)."""
+
+    path: str
+    conf: float = 0.3
+    iou: float = 0.45
+    threads: int | None = None
+
+    def open(self, threads: int | None = None) -> Any:
+        from detectors import OnnxDetector
+
+        return OnnxDetector(self.path, conf_threshold=self.conf, iou_threshold=self.iou,
+                            threads=threads or self.threads)
 
 
 def scale_pair(left: np.ndarray, right: np.ndarray, rig: RectifiedRig, size: tuple[int, int]
@@ -108,17 +179,148 @@ def scale_pair(left: np.ndarray, right: np.ndarray, rig: RectifiedRig, size: tup
     return cv2.resize(left, size, interpolation=interp), cv2.resize(right, size, interpolation=interp)
 
 
+@dataclass(frozen=True)
+class FrameOutput:
+    """One processed frame: what the writer needs (and, from a worker, who made it and in how long)."""
+
+    index: int
+    name: str
+    result: PipelineResult | None = None
+    rig: RectifiedRig | None = None
+    record: dict[str, Any] | None = None
+    error: str | None = None
+    skipped_scene: str | None = None
+    worker: str | None = None
+    seconds: float = 0.0
+
+
+@dataclass
+class FrameProcessor:
+    """The pipeline for frames of one run: one :class:`~stereo_classic.pipeline.Localizer` per rig, kept between
+    frames (its matcher buffers and the detector stay warm). Serial runs use one; each Dask worker keeps one.
+
+    ``detector`` is an object with ``detect(image)``, a :class:`DetectorSpec` (opened on first use) or None.
+    ``threads`` (when set) overrides the matcher's and the opened detector's thread count.
+    """
+
+    params_for: Callable[[int | None], SGMParams]
+    rig: RectifiedRig | None = None
+    detector: Any = None
+    detector_name: str | None = None
+    fusion: FusionParams = field(default_factory=FusionParams)
+    seed: int = 0
+    classes: tuple[str, ...] | None = None
+    concurrent: bool = False
+    scale: float = 1.0
+    threads: int | None = None
+    on_error: str = "stop"
+
+    def __post_init__(self) -> None:
+        self._current: list[Any] = []  # [original rig, scaled rig, Localizer]
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state["_current"] = []
+        return state
+
+    def _detector(self) -> Any:
+        if isinstance(self.detector, DetectorSpec):
+            self.detector = self.detector.open(self.threads)
+        return self.detector
+
+    def process(self, frame: Frame) -> FrameOutput:
+        """Run the pipeline on one frame; the output carries the record the writer writes.
+
+        Raises
+        ------
+        ValueError
+            A frame without a calibration, or images that do not fit their rig.
+        """
+        frame_rig = original = frame.rig if frame.rig is not None else self.rig
+        if frame_rig is None:
+            raise ValueError(f"frame {frame.name}: no calibration")
+        if not self._current or self._current[0] is not original:
+            # Each Localizer's matcher holds ~2*H*W*D bytes of buffers: free them before the next allocates.
+            self.close()
+            if self.scale != 1.0:
+                frame_rig = (frame_rig.without_maps() if frame_rig.has_maps else frame_rig).scaled(self.scale)
+            params = self.params_for(frame.max_disparity)
+            if self.threads:
+                params = dataclasses.replace(params, threads=self.threads)
+            self._current[:] = [original, frame_rig, Localizer(
+                frame_rig, self._detector(), params, fusion=self.fusion, seed=self.seed, classes=self.classes,
+                concurrent=self.concurrent)]
+        _, frame_rig, loc = self._current
+        left, right = frame.left, frame.right
+        if self.scale != 1.0:
+            left, right = scale_pair(left, right, original, frame_rig.image_size)
+        result = loc(left, right)
+        record = frame_record(frame.name, frame.index, result, frame_rig, detector=self.detector_name,
+                              fusion=self.fusion, seed=self.seed)
+        return FrameOutput(frame.index, frame.name, result, frame_rig, record)
+
+    def process_ref(self, ref: FrameRef) -> FrameOutput:
+        """Read and process one described frame. A scene without a calibration, and (``on_error="skip"``) a frame
+        that fails to read or to process, come back as an output that says so instead of raising."""
+        try:
+            return self.process(ref.read())
+        except SceneSkipped as exc:
+            return FrameOutput(ref.index, ref.name, skipped_scene=str(exc))
+        except (OSError, ValueError) as exc:
+            if self.on_error != "skip":
+                raise
+            return FrameOutput(ref.index, ref.name, error=f"{type(exc).__name__}: {exc}")
+
+    def close(self) -> None:
+        if self._current:
+            self._current.pop().close()
+            self._current.clear()
+
+
+class _Collector:
+    """The client's side of a run: writes finished frames in order with the writer and keeps the summary."""
+
+    def __init__(self, writer: FrameWriter, summary: RunSummary, on_frame: Callable[..., None] | None,
+                 bar: Any) -> None:
+        self.writer, self.summary, self.on_frame, self.bar = writer, summary, on_frame, bar
+
+    def take(self, out: FrameOutput) -> None:
+        summary = self.summary
+        if out.skipped_scene is not None:
+            log.warning("%s", out.skipped_scene)
+            summary.skipped_scenes.append(out.skipped_scene)
+        elif out.error is not None:
+            log.error("frame %s failed and is skipped (--on-error skip): %s", out.name, out.error)
+            summary.failed.append((out.name, out.error))
+        else:
+            assert out.result is not None and out.rig is not None and out.record is not None
+            with _DeferInterrupt():
+                self.writer.write(out.name, out.result, out.rig, out.record)
+                summary.frames += 1  # counted with the write, before a held Ctrl-C is raised
+                summary.timings_ms.append(out.result.timings_ms)
+                summary.objects += len(out.result.objects)
+            if out.worker is not None:
+                entry = summary.workers.setdefault(out.worker, [0, 0.0])
+                entry[0] += 1
+                entry[1] += out.seconds
+            if self.on_frame is not None:
+                self.on_frame(Frame(out.index, out.name, out.result.left, out.result.left, out.rig), out.result)
+        self.bar.update(1)
+
+
 def run_source(source: Source, writer: FrameWriter, *, params_for: Callable[[int | None], SGMParams],
                rig: RectifiedRig | None = None, detector: Any = None, detector_name: str | None = None,
                fusion: FusionParams | None = None, seed: int = 0, classes: Iterable[str] | None = None,
                concurrent: bool = False, scale: float = 1.0, progress: bool = False,
-               on_frame: Callable[[Frame, PipelineResult], None] | None = None) -> RunSummary:
+               on_frame: Callable[[Frame, PipelineResult], None] | None = None, on_error: str = "stop",
+               executor: Any = None) -> RunSummary:
     """Run the pipeline on every frame of ``source`` and write each frame with ``writer``.
 
     Parameters
     ----------
     source : PairSource, SceneSource or SideBySideSource
-        Where the frames come from; a frame's own rig (dataset scenes) wins over ``rig``.
+        Where the frames come from; a frame's own rig (dataset scenes) wins over ``rig``. Frames are read one at
+        a time, when processed.
     writer : FrameWriter
         Writes each frame's files; its :meth:`~stereo_classic.outputs.FrameWriter.finished` decides which
         frames are skipped.
@@ -126,8 +328,8 @@ def run_source(source: Source, writer: FrameWriter, *, params_for: Callable[[int
         The matcher parameters for a frame, given the frame's known disparity range (or None).
     rig : calib.RectifiedRig, optional
         The calibration of frames that bring none (image pairs, video, camera).
-    detector : object with ``detect(image)``, or None
-        None: depth only. ``detector_name`` is recorded in each frame's record.
+    detector : object with ``detect(image)``, a :class:`DetectorSpec`, or None
+        None: depth only. ``detector_name`` is recorded in each frame's record. A Dask executor needs a spec.
     fusion, seed, classes, concurrent
         As for :class:`~stereo_classic.pipeline.Localizer`.
     scale : float
@@ -136,19 +338,30 @@ def run_source(source: Source, writer: FrameWriter, *, params_for: Callable[[int
         Show a progress bar on stderr.
     on_frame : callable, optional
         Called with each frame and its result after the frame is written (the command line prints there).
+    on_error : {"stop", "skip"}
+        A frame that cannot be read or processed (corrupt image, wrong size) ends the run ("stop", raising its
+        error) or is recorded in :attr:`RunSummary.failed` and the run goes on ("skip").
+    executor : object with ``run(frames, processor, take)``, optional
+        Where frames are processed: None = here, one after another; a
+        :class:`stereo_classic.cluster.DaskExecutor` = on a Dask cluster. Either way the frames are written here,
+        in frame order, so the output folder is the same byte for byte.
 
     Returns
     -------
     RunSummary
+        ``interrupted`` (and ``signal``) when Ctrl-C or SIGTERM ended the run.
 
     Raises
     ------
     ValueError
-        A frame without a calibration, or images that do not fit their rig.
+        A frame without a calibration, or images that do not fit their rig (``on_error="stop"``), or a wrong
+        ``on_error``.
     """
-    fusion = fusion or FusionParams()
+    if on_error not in ON_ERROR:
+        raise ValueError(f"`on_error` must be one of {', '.join(ON_ERROR)}, got {on_error!r}")
     summary = RunSummary()
-    current: list[Any] = []  # [original rig, scaled rig, Localizer] of the frame in progress
+    processor = FrameProcessor(params_for, rig, detector, detector_name, fusion or FusionParams(), seed,
+                               tuple(classes) if classes else None, concurrent, scale, on_error=on_error)
 
     def skip(name: str) -> bool:
         if writer.finished(name):
@@ -157,41 +370,18 @@ def run_source(source: Source, writer: FrameWriter, *, params_for: Callable[[int
         return False
 
     bar = tqdm(total=len(source) or None, unit="frame", file=sys.stderr, leave=False, disable=not progress)
+    collector = _Collector(writer, summary, on_frame, bar)
     try:
-        for frame in source.frames(skip):
-            frame_rig = original = frame.rig if frame.rig is not None else rig
-            if frame_rig is None:
-                raise ValueError(f"frame {frame.name}: no calibration")
-            if not current or current[0] is not original:
-                # Each Localizer's matcher holds ~2*H*W*D bytes of buffers: free them before the next allocates.
-                if current:
-                    current.pop().close()
-                    current.clear()
-                if scale != 1.0:
-                    frame_rig = (frame_rig.without_maps() if frame_rig.has_maps else frame_rig).scaled(scale)
-                current[:] = [original, frame_rig, Localizer(
-                    frame_rig, detector, params_for(frame.max_disparity), fusion=fusion, seed=seed, classes=classes,
-                    concurrent=concurrent)]
-            _, frame_rig, loc = current
-            left, right = frame.left, frame.right
-            if scale != 1.0:
-                left, right = scale_pair(left, right, original, frame_rig.image_size)
-            result = loc(left, right)
-            record = frame_record(frame.name, frame.index, result, frame_rig, detector=detector_name, fusion=fusion,
-                                  seed=seed)
-            with _DeferInterrupt():
-                writer.write(frame.name, result, frame_rig, record)
-            summary.timings_ms.append(result.timings_ms)
-            summary.frames += 1
-            summary.objects += len(result.objects)
-            if on_frame is not None:
-                on_frame(frame, result)
-            bar.update(1)
-    except KeyboardInterrupt:
+        with _TermAsInterrupt():
+            if executor is None:
+                for ref in source.refs(skip):
+                    collector.take(processor.process_ref(ref))
+            else:
+                executor.run(source.refs(skip), processor, collector.take)
+    except KeyboardInterrupt as exc:
         summary.interrupted = True
+        summary.signal = "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"
     finally:
         bar.close()
-        if current:
-            current[-1].close()
+        processor.close()
     return summary
-

@@ -18,9 +18,12 @@ import glob
 import logging
 import os
 import re
+import sys
+import tempfile
 import unicodedata
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -34,10 +37,12 @@ from stereo_classic.io import read_image
 
 __all__ = [
     "Frame",
-    "SourceError",
+    "FrameRef",
     "PairSource",
+    "SceneSkipped",
     "SceneSource",
     "SideBySideSource",
+    "SourceError",
     "expand_pairs",
 ]
 
@@ -69,6 +74,55 @@ class Frame:
     right: np.ndarray
     rig: RectifiedRig | None = None
     max_disparity: int | None = None
+
+
+class SceneSkipped(SourceError):
+    """A scene that was read but cannot be measured (no calibration): the run names it and goes on."""
+
+
+@dataclass(frozen=True)
+class FrameRef:
+    """One frame, described but not read: what a run hands to whoever processes it (this process or a worker).
+
+    Attributes
+    ----------
+    index : int
+        Position in the source (0-based).
+    name : str
+        The frame's name (outputs are named after it).
+    what : str
+        Where it comes from, for messages (the image paths, the scene folder).
+    load : callable
+        ``load()`` returns ``(left, right, rig, max_disparity)``; picklable for the files of pairs and datasets
+        (a ``functools.partial`` of a module-level function), so only the description travels.
+    """
+
+    index: int
+    name: str
+    what: str
+    load: Callable[[], tuple[np.ndarray, np.ndarray, RectifiedRig | None, int | None]] = field(repr=False)
+
+    def read(self) -> Frame:
+        """Read the frame's images (and, for a dataset scene, its calibration)."""
+        left, right, rig, max_disparity = self.load()
+        return Frame(self.index, self.name, left, right, rig, max_disparity)
+
+
+def _read_pair(left: Path, right: Path) -> tuple[np.ndarray, np.ndarray, None, None]:
+    return read_image(left), read_image(right), None, None
+
+
+def _read_scene(load: Callable[[], Scene], name: str, what: str
+                ) -> tuple[np.ndarray, np.ndarray, RectifiedRig | None, int | None]:
+    scene = load()
+    if scene.rig is None:
+        raise SceneSkipped(f"scene {name} ({what}) has no calibration (metric distances need one): skipped")
+    return scene.left, scene.right, scene.rig, scene.max_disparity
+
+
+def _given(left: np.ndarray, right: np.ndarray, rig: RectifiedRig | None = None, max_disparity: int | None = None
+           ) -> tuple[np.ndarray, np.ndarray, RectifiedRig | None, int | None]:
+    return left, right, rig, max_disparity
 
 
 #: Characters no file system (Windows, macOS, Linux) takes in a file name, and control characters.
@@ -170,15 +224,33 @@ def expand_pairs(left: Sequence[str | os.PathLike[str]],
 
 
 def _quietly(open_capture: Callable[[], Any]) -> Any:
-    """Open a capture with OpenCV's own warnings ("can't open camera by index") silenced: the caller says it
-    in one line. ``-vv`` (debug logging) keeps them."""
+    """Open a capture with OpenCV's own warnings ("can't open camera by index") and FFmpeg's ("moov atom not
+    found", written by native code straight to file descriptor 2) held back: the caller says it in one line.
+    What they wrote is logged at debug level; ``-vv`` (debug logging) shows them as they come."""
     log_api = getattr(getattr(cv2, "utils", None), "logging", None)
     if log_api is None or logging.getLogger().isEnabledFor(logging.DEBUG):
         return open_capture()
     previous = log_api.getLogLevel()
     log_api.setLogLevel(log_api.LOG_LEVEL_ERROR)
     try:
-        return open_capture()
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError, AttributeError):  # no real stderr (embedded interpreters)
+        saved = None
+    try:
+        if saved is None:
+            return open_capture()
+        with tempfile.TemporaryFile() as tmp:
+            os.dup2(tmp.fileno(), 2)
+            try:
+                return open_capture()
+            finally:
+                os.dup2(saved, 2)
+                os.close(saved)
+                tmp.seek(0)
+                noise = tmp.read().decode("utf-8", "replace").strip()
+                if noise:
+                    logging.getLogger(__name__).debug("while opening the capture, OpenCV/FFmpeg said: %s", noise)
     finally:
         log_api.setLogLevel(previous)
 
@@ -201,64 +273,124 @@ class PairSource:
     def names(self) -> list[str] | None:
         return list(self._names)
 
-    def frames(self, skip: Callable[[str], bool] = lambda name: False) -> Iterator[Frame]:
+    def refs(self, skip: Callable[[str], bool] = lambda name: False) -> Iterator[FrameRef]:
+        """The frames not skipped, described (paths), not read."""
         for i, ((lp, rp), name) in enumerate(zip(self.pairs, self._names)):
-            if skip(name):
-                continue
-            yield Frame(i, name, read_image(lp), read_image(rp))
+            if not skip(name):
+                yield FrameRef(i, name, f"{lp} + {rp}", partial(_read_pair, lp, rp))
+
+    def frames(self, skip: Callable[[str], bool] = lambda name: False) -> Iterator[Frame]:
+        for ref in self.refs(skip):
+            yield ref.read()
 
     def close(self) -> None:
         pass
 
 
-class SceneSource:
-    """Scenes from ``stereo_classic.datasets``: the demo scene, one scene folder, or every scene below a folder."""
+def _scene_itself(scene: Scene) -> Scene:
+    return scene
 
-    def __init__(self, scenes: Sequence[Scene]) -> None:
+
+class SceneSource:
+    """Scenes from ``stereo_classic.datasets``: the demo scene, one scene folder, or every scene below a folder.
+
+    A dataset streams: the folder is scanned for scene descriptions (names and loaders) up front, and each scene is
+    read when its frame is processed, so memory does not grow with the number of scenes. A scene without a
+    calibration is skipped when it is read (:class:`SceneSkipped`: the run names it and goes on).
+
+    Parameters
+    ----------
+    scenes : sequence of Scene or of (name, what, load)
+        Scenes in memory, or descriptions: the scene's name, where it is (for messages) and ``load()`` returning the
+        :class:`~stereo_classic.datasets.Scene`.
+    """
+
+    def __init__(self, scenes: Sequence[Scene | tuple[str, str, Callable[[], Scene]]]) -> None:
         if not scenes:
             raise SourceError("no scenes found")
-        self.scenes = list(scenes)
-        self._names = _unique([_safe_name(s.name or "scene") for s in self.scenes])
-        self.rig = self.scenes[0].rig if len(self.scenes) == 1 else None
+        self.scenes: list[tuple[str, str, Callable[[], Scene]]] = [
+            (s.name or "scene", str(s.path or s.name), partial(_scene_itself, s)) if isinstance(s, Scene) else s
+            for s in scenes]
+        first = scenes[0]
+        self.rig = first.rig if len(scenes) == 1 and isinstance(first, Scene) else None
+        #: Things found in the folder but not taken as scenes (a left image without its right image), one line each.
+        self.notes: list[str] = []
 
     @classmethod
     def demo(cls) -> SceneSource:
-        return cls([datasets.demo_scene()])
+        scene = datasets.demo_scene()
+        source = cls([(scene.name, "the built-in demo scene", datasets.demo_scene)])
+        source.rig = scene.rig
+        return source
 
     @classmethod
     def from_folder(cls, root: str | os.PathLike[str]) -> SceneSource:
+        """Every scene at or below ``root``, described, not read (one scene is read to check for a calibration).
+
+        Raises
+        ------
+        FileNotFoundError
+            ``root`` does not exist.
+        SourceError
+            ``root`` is a file, holds no scene, or none of its scenes has a calibration.
+        """
         path = Path(root)
         if not path.exists():
             raise FileNotFoundError(f"dataset folder not found: {path}")
         if not path.is_dir():
             raise SourceError(f"--dataset must be a folder, got a file: {path}")
-        try:
-            scenes = [datasets.load_scene(path)]
-        except (ValueError, FileNotFoundError):
-            scenes = list(datasets.iter_scenes(path))
-        if not scenes:
+        log = logging.getLogger("stereo_classic.run")
+        notes: list[str] = []
+        entries = [(name, f"{d / name}" if d.name != name else str(d), load)
+                   for name, d, load in datasets.iter_scene_refs(path, on_skip=notes.append)]
+        for note in notes:
+            log.warning("skipping %s", note)
+        if not entries:
             raise SourceError(f"no stereo scene (Middlebury, KITTI, ...) found in {path}")
-        calibrated = [s for s in scenes if s.rig is not None]
-        if not calibrated:
-            raise SourceError(f"no scene in {path} has a calibration (metric distances need one): "
-                              f"{', '.join(s.name for s in scenes[:3])}")
-        if len(calibrated) < len(scenes):
-            logging.getLogger("stereo_classic.run").warning(
-                "skipping %d scene(s) without a calibration in %s", len(scenes) - len(calibrated), path)
-        return cls(calibrated)
+        source = cls(entries)
+        source.notes = notes
+        rig = source._first_rig(path)
+        if len(entries) == 1:
+            source.rig = rig
+        return source
+
+    def _first_rig(self, path: Path) -> RectifiedRig:
+        """Read scenes until one has a calibration (usually the first): a dataset without any fails before work."""
+        failures: list[str] = []
+        for name, what, load in self.scenes:
+            try:
+                scene = load()
+            except (OSError, ValueError) as exc:  # a corrupt scene: the run meets it again and reports it
+                failures.append(f"{name}: {exc}")
+                continue
+            if scene.rig is not None:
+                return scene.rig
+            failures.append(f"{name}: no calibration")
+        names = ", ".join(f[: f.index(":")] for f in failures[:3])
+        if all(f.endswith("no calibration") for f in failures):
+            raise SourceError(f"no scene in {path} has a calibration (metric distances need one): {names}")
+        raise SourceError(f"no scene in {path} could be read with a calibration; first: {failures[0]}")
 
     def __len__(self) -> int:
         return len(self.scenes)
 
     @property
     def names(self) -> list[str] | None:
-        return list(self._names)
+        return _unique([_safe_name(name or "scene") for name, _, _ in self.scenes])
+
+    def refs(self, skip: Callable[[str], bool] = lambda name: False) -> Iterator[FrameRef]:
+        """The scenes not skipped, described (folder and loader), not read."""
+        for i, ((_, what, load), name) in enumerate(zip(self.scenes, self.names or [])):
+            if not skip(name):
+                yield FrameRef(i, name, what, partial(_read_scene, load, name, what))
 
     def frames(self, skip: Callable[[str], bool] = lambda name: False) -> Iterator[Frame]:
-        for i, (scene, name) in enumerate(zip(self.scenes, self._names)):
-            if skip(name):
-                continue
-            yield Frame(i, name, scene.left, scene.right, scene.rig, scene.max_disparity)
+        """The scenes not skipped, read one at a time (scenes without a calibration are left out)."""
+        for ref in self.refs(skip):
+            try:
+                yield ref.read()
+            except SceneSkipped as exc:
+                logging.getLogger("stereo_classic.run").warning("%s", exc)
 
     def close(self) -> None:
         pass
@@ -313,6 +445,12 @@ class SideBySideSource:
         return None if self._count is None else [f"frame_{i:06d}" for i in range(self._count)]
 
     def frames(self, skip: Callable[[str], bool] = lambda name: False) -> Iterator[Frame]:
+        for ref in self.refs(skip):
+            yield ref.read()
+
+    def refs(self, skip: Callable[[str], bool] = lambda name: False) -> Iterator[FrameRef]:
+        """The frames not skipped, read from the capture as they are asked for (a video cannot be described by
+        path and index alone: its images travel with the description)."""
         i = 0
         while self.max_frames is None or i < self.max_frames:
             ok, image = self.cap.read()
@@ -326,7 +464,8 @@ class SideBySideSource:
                 raise SourceError(f"{self.what}: a side-by-side frame needs an even width, got {image.shape[1]} px")
             if not skip(name):
                 half = image.shape[1] // 2
-                yield Frame(i, name, np.ascontiguousarray(image[:, :half]), np.ascontiguousarray(image[:, half:]))
+                yield FrameRef(i, name, f"{self.what} frame {i}", partial(
+                    _given, np.ascontiguousarray(image[:, :half]), np.ascontiguousarray(image[:, half:])))
             i += 1
 
     def close(self) -> None:

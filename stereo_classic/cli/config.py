@@ -62,6 +62,9 @@ def _run_defaults() -> dict[str, tuple[Any, str]]:
         "scale": 1.0,
         "max_frames": 0,
         "concurrent": False,
+        "on_error": "stop",
+        "executor": "serial",
+        "scheduler": "",
     }
     return {k: (v, "list[str]" if k in ("save", "classes") else _kind(v)) for k, v in table.items()}
 

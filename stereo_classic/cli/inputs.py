@@ -89,5 +89,5 @@ def open_source(args: argparse.Namespace, max_frames: int | None = None) -> tupl
             raise UsageError(str(exc)) from None
         raise
     if max_frames:
-        src.scenes = src.scenes[:max_frames]
+        src.scenes = src.scenes[:max_frames]  # descriptions: the scenes past it are never read
     return src, None

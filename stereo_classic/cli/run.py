@@ -14,6 +14,9 @@ import argparse
 import logging
 import math
 import sys
+import time
+from contextlib import ExitStack
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -38,7 +41,10 @@ from stereo_classic.fusion.objects import TABLE_COLUMNS
 from stereo_classic.matching import SGMParams
 from stereo_classic.outputs import SAVE_KINDS, FrameWriter
 from stereo_classic.pipeline import PipelineResult, format_timings
-from stereo_classic.runner import run_source
+from stereo_classic.runner import ON_ERROR, DetectorSpec, RunSummary, run_source
+
+#: Where frames can be processed (``--executor``).
+EXECUTORS = ("serial", "dask")
 
 __all__ = ["add_parser", "func"]
 
@@ -86,6 +92,15 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                      help="threads for the matcher and the detector (default: all)")
     run.add_argument("--concurrent", action=argparse.BooleanOptionalAction, default=None,
                      help="run the detector in a thread beside the matcher (default off: not faster on 2 cores)")
+    run.add_argument("--on-error", choices=ON_ERROR, default=None,
+                     help="a frame that cannot be read or processed: stop the run (default) or skip it, "
+                          "naming it in the summary")
+    run.add_argument("--executor", choices=EXECUTORS, default=None,
+                     help="where frames are processed: here (serial, default) or on a Dask cluster "
+                          "(needs the dask extra; see docs/scale.md)")
+    run.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                     help="with --executor dask: tcp://host:8786 or a scheduler file of a running cluster "
+                          "(default: start a local cluster)")
     run.add_argument("--config", metavar="FILE.toml", help="read options from a TOML file (flags win)")
     run.add_argument("--dump-config", action="store_true", help="print the merged options as TOML and exit")
     p.set_defaults(func=func)
@@ -111,6 +126,12 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
         raise UsageError(f"--save: unknown output {bad[0]!r}; choose among {', '.join(SAVE_KINDS)}")
     if cfg["threads"] < 0:
         raise UsageError(f"--threads must be >= 1 (0 = all), got {cfg['threads']}")
+    if cfg["on_error"] not in ON_ERROR:
+        raise UsageError(f"`on_error` (--on-error) must be one of {', '.join(ON_ERROR)}, got {cfg['on_error']!r}")
+    if cfg["executor"] not in EXECUTORS:
+        raise UsageError(f"`executor` (--executor) must be one of {', '.join(EXECUTORS)}, got {cfg['executor']!r}")
+    if cfg["scheduler"] and cfg["executor"] != "dask":
+        raise UsageError("--scheduler goes with --executor dask")
     if not (0 < cfg["scale"] <= 4):
         raise UsageError(f"--scale must be in (0, 4], got {cfg['scale']}")
     for key in ("conf", "iou"):
@@ -147,6 +168,8 @@ def _open_detector(cfg: dict[str, Any]) -> tuple[OnnxDetector | None, str | None
         path = resolve_model(cfg["model"])
     except ModelNotFoundError as exc:
         hint = str(exc).splitlines()[0]
+        if cfg["model"] != RUN_DEFAULTS["model"]:  # a model the user named: a usage error, never a quiet fallback
+            raise UsageError(f"--model {cfg['model']}: {hint} (--model none computes depth only)") from None
         if "python -m detectors fetch" not in hint:
             hint += "; `python -m detectors fetch` downloads the official models"
         log.warning("no detector, computing depth only: %s", hint)
@@ -204,21 +227,65 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
             text = table if table else ("no objects found" if detector is not None else "depth only (no detector)")
         tqdm.write(text, file=sys.stdout)
 
-    summary = run_source(
-        source, writer, params_for=lambda max_disparity: _matcher_params(cfg, max_disparity), rig=base_rig,
-        detector=detector, detector_name=detector_name, fusion=fusion, seed=cfg["seed"],
-        classes=cfg["classes"] or None, concurrent=cfg["concurrent"], scale=cfg["scale"],
-        progress=not (quiet or args.no_progress) and sys.stderr.isatty(), on_frame=show)
+    with ExitStack() as stack:
+        executor = None
+        if cfg["executor"] == "dask":
+            executor = stack.enter_context(_dask_executor(cfg, quiet))
+            if detector is not None:  # each worker opens its own, once
+                detector = DetectorSpec(str(resolve_model(cfg["model"])), cfg["conf"], cfg["iou"])
+        started = time.perf_counter()
+        summary = run_source(
+            source, writer, params_for=partial(_matcher_params, cfg), rig=base_rig,
+            detector=detector, detector_name=detector_name, fusion=fusion, seed=cfg["seed"],
+            classes=cfg["classes"] or None, concurrent=cfg["concurrent"], scale=cfg["scale"],
+            progress=not (quiet or args.no_progress) and sys.stderr.isatty(), on_frame=show,
+            on_error=cfg["on_error"], executor=executor)
+        wall = time.perf_counter() - started
+    return _report(summary, source, outdir, quiet, wall)
+
+
+def _dask_executor(cfg: dict[str, Any], quiet: bool) -> Any:
+    try:
+        from stereo_classic.cluster import DaskExecutor, DaskNotInstalledError
+    except ImportError as exc:  # pragma: no cover - the module itself imports no dask
+        raise UsageError(str(exc)) from None
+    try:
+        return DaskExecutor(cfg["scheduler"] or None,
+                            on_dashboard=None if quiet else lambda link: print(f"Dask dashboard: {link}",
+                                                                               file=sys.stderr))
+    except DaskNotInstalledError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _report(summary: RunSummary, source: Source, outdir: Path, quiet: bool, wall: float) -> int:
+    """The end of a run: warnings, the timing table (per worker for Dask), the summary line, the exit code."""
     if isinstance(source, sources.SideBySideSource) and source.stopped_early and not summary.interrupted:
         log.warning("%s stopped delivering frames after %d frame(s); finishing", source.what, source.frames_read)
     if summary.timings_ms and not quiet:
         print(format_timings(summary.timings_ms), file=sys.stderr)
+        for address, (frames, busy) in sorted(summary.workers.items()):
+            print(f"worker {address}: {int(frames)} frame(s), {frames / busy if busy else 0:.2f} frames/s busy, "
+                  f"{busy:.1f} s", file=sys.stderr)
+        if wall > 0:
+            print(f"{summary.frames} frame(s) in {wall:.1f} s: {summary.frames / wall:.2f} frames/s", file=sys.stderr)
     text = f"{summary.frames} frame(s), {summary.objects} object(s), outputs in {outdir}"
     if summary.skipped:
         text += f"; {summary.skipped} finished frame(s) skipped (--resume)"
+    for line in summary.skipped_scenes:
+        log.warning("not measured: %s", line)
+    if summary.failed:
+        text += f"; {len(summary.failed)} frame(s) FAILED and skipped (--on-error skip): " + ", ".join(
+            name for name, _ in summary.failed[:10]) + (", ..." if len(summary.failed) > 10 else "")
     if summary.interrupted:
-        print(f"interrupted: {text}; the frame in progress was not written, rerun with --resume to continue",
+        what = "terminated (SIGTERM)" if summary.signal == "SIGTERM" else "interrupted"
+        print(f"{what}: {text}; the frame in progress was not written, rerun with --resume to continue",
               file=sys.stderr)
-        return 130
+        return 143 if summary.signal == "SIGTERM" else 130
+    if summary.failed:
+        log.error("%s", text)
+        return 1
+    if summary.frames == 0 and summary.skipped == 0 and summary.skipped_scenes:
+        log.error("no frame could be measured: %s", text)
+        return 1
     log.info(text)
     return 0

@@ -50,7 +50,7 @@ from stereo_classic.datasets.demo import (
     DEMO_FOCAL_PX,
     demo_scene,
 )
-from stereo_classic.datasets.discovery import iter_scenes, load_scene
+from stereo_classic.datasets.discovery import iter_scene_refs, iter_scenes, load_scene
 from stereo_classic.datasets.drivingstereo import iter_drivingstereo, load_drivingstereo
 from stereo_classic.datasets.kitti import (
     iter_kitti_object,
@@ -71,6 +71,7 @@ __all__ = [
     "SceneRef",
     "load_scene",
     "iter_scenes",
+    "iter_scene_refs",
     "demo_scene",
     "DEMO_FOCAL_PX",
     "DEMO_BASELINE_M",

@@ -15,10 +15,15 @@ from __future__ import annotations
 import os
 import re
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from functools import partial
 from pathlib import Path
 
-from stereo_classic.datasets.drivingstereo import _drivingstereo_frames, _drivingstereo_splits, load_drivingstereo
+from stereo_classic.datasets.drivingstereo import (
+    _drivingstereo_frames,
+    _drivingstereo_splits,
+    load_drivingstereo,
+)
 from stereo_classic.datasets.kitti import (
     _kitti_object_frames,
     _kitti_stereo_dirs,
@@ -34,38 +39,83 @@ from stereo_classic.datasets.middlebury import (
     load_named_pair,
 )
 from stereo_classic.datasets.oakd import _OAKD_JSON, load_oakd
-from stereo_classic.datasets.scene import _IMAGE_EXTS, Scene, SceneRef, _find, _folder, _named_pairs
+from stereo_classic.datasets.scene import (
+    _IMAGE_EXTS,
+    Scene,
+    SceneRef,
+    _find,
+    _folder,
+    _named_pairs,
+)
 from stereo_classic.io import FileFormatError
 
-__all__ = ["iter_scenes", "load_scene"]
+__all__ = ["iter_scene_refs", "iter_scenes", "load_scene"]
 
 
 def _scan(d: Path) -> list[SceneRef] | None:
-    """The scenes a folder holds as one layout, or None when it is not a scene folder."""
+    """The scenes a folder holds as one layout, or None when it is not a scene folder.
+
+    Each loader is a ``functools.partial`` of a module-level function: picklable, so a frame description can travel
+    to another process (``run --executor dask``) and be read there.
+    """
     if _find(d, "im0") is not None and _find(d, "im1") is not None:
-        return [(d.name, lambda: load_middlebury2014(d))]
+        return [(d.name, partial(load_middlebury2014, d))]
     if _classic_layout(d) is not None:
-        return [(d.name, lambda: load_middlebury_classic(d))]
+        return [(d.name, partial(load_middlebury_classic, d))]
     if (d / "calib.txt").is_file() and (_find(d, "lidar", (".bin",)) or _find(d, "velodyne", (".bin",))):
-        return [(d.name, lambda: load_kitti_lidar_folder(d))]
+        return [(d.name, partial(load_kitti_lidar_folder, d))]
     if (d / "image_2").is_dir() and (d / "image_3").is_dir() and (d / "calib").is_dir() and (d / "velodyne").is_dir():
-        return [(fid, lambda fid=fid: load_kitti_object(d, fid)) for fid in _kitti_object_frames(d)]
+        return [(fid, partial(load_kitti_object, d, fid)) for fid in _kitti_object_frames(d)]
     splits = _drivingstereo_splits(d)
     if splits:
         return [
-            (fid, lambda fid=fid, s=s: load_drivingstereo(d, fid, split=s))
+            (fid, partial(load_drivingstereo, d, fid, split=s))
             for s in splits
             for fid in _drivingstereo_frames(d, s)
         ]
     dirs = _kitti_stereo_dirs(d)
     if dirs is not None:
-        return [(fid, lambda fid=fid: load_kitti_stereo(d, fid)) for fid in _kitti_stereo_frames(d, dirs)]
+        return [(fid, partial(load_kitti_stereo, d, fid)) for fid in _kitti_stereo_frames(d, dirs)]
     names = _named_pairs(d)
     if names:
         if (d / _OAKD_JSON).is_file():
-            return [(n, lambda n=n: load_oakd(d, n)) for n in names]
-        return [(n, lambda n=n: load_named_pair(d, n)) for n in names]
+            return [(n, partial(load_oakd, d, n)) for n in names]
+        return [(n, partial(load_named_pair, d, n)) for n in names]
     return None
+
+
+def _unpaired_lefts(d: Path) -> list[str]:
+    """``<name>_left`` images of ``d`` without a ``<name>_right`` image (a scan skips them)."""
+    out = []
+    for left in sorted(d.glob("*_left.*")):
+        if left.suffix.lower() in _IMAGE_EXTS:
+            name = left.name[: -len("_left" + left.suffix)]
+            if _find(d, f"{name}_right") is None:
+                out.append(left.name)
+    return out
+
+
+def iter_scene_refs(root: str | os.PathLike, *,
+                    on_skip: Callable[[str], None] | None = None) -> Iterator[tuple[str, Path, Callable[[], Scene]]]:
+    """Every scene at or below ``root`` as ``(name, folder, load)``, in sorted path order, none of them read.
+
+    ``load()`` reads the scene (a picklable ``functools.partial``). ``on_skip`` is called with one line for
+    each thing found but not a scene: a ``<name>_left`` image without its ``<name>_right``.
+    """
+    top = _folder(root, "dataset folder")
+    stack = [top]
+    while stack:
+        d = stack.pop()
+        refs = _scan(d)
+        if on_skip is not None:
+            for left in _unpaired_lefts(d):
+                on_skip(f"{d / left}: a left image without a right image ({left.replace('_left', '_right', 1)})")
+        if refs is not None:
+            for name, load in refs:
+                yield name, d, load
+            continue
+        subdirs = sorted((p for p in d.iterdir() if p.is_dir() and not p.name.startswith(".")), reverse=True)
+        stack.extend(subdirs)
 
 
 def iter_scenes(root: str | os.PathLike, *, skip_errors: bool = False) -> Iterator[Scene]:
@@ -81,24 +131,15 @@ def iter_scenes(root: str | os.PathLike, *, skip_errors: bool = False) -> Iterat
         False (default): a scene that fails to load raises (``FileNotFoundError``/``ValueError`` naming
         the file). True: it is skipped with a ``UserWarning`` that says which and why.
     """
-    top = _folder(root, "dataset folder")
-    stack = [top]
-    while stack:
-        d = stack.pop()
-        refs = _scan(d)
-        if refs is not None:
-            for name, load in refs:
-                try:
-                    scene = load()
-                except (OSError, ValueError) as exc:
-                    if not skip_errors:
-                        raise
-                    warnings.warn(f"skipped scene {name!r} in {d}: {exc}", UserWarning, stacklevel=2)
-                    continue
-                yield scene
+    for name, d, load in iter_scene_refs(root):
+        try:
+            scene = load()
+        except (OSError, ValueError) as exc:
+            if not skip_errors:
+                raise
+            warnings.warn(f"skipped scene {name!r} in {d}: {exc}", UserWarning, stacklevel=2)
             continue
-        subdirs = sorted((p for p in d.iterdir() if p.is_dir() and not p.name.startswith(".")), reverse=True)
-        stack.extend(subdirs)
+        yield scene
 
 
 def _first_scene_folder_below(d: Path, depth: int = 3) -> Path | None:
