@@ -31,7 +31,7 @@ import itertools
 import json
 import logging
 import os
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -104,13 +104,14 @@ def box_labels(objects: LocalizedObjects) -> list[str]:
 
 
 def frame_record(name: str, index: int, result: PipelineResult, rig: RectifiedRig, *, detector: str | None,
-                 fusion: FusionParams, seed: int) -> dict[str, Any]:
-    """The JSON record of one frame: its name and size, the rig, the settings and the objects.
+                 fusion: FusionParams, seed: int, source: Mapping[str, Any] | None = None,
+                 original_size: tuple[int, int] | None = None) -> dict[str, Any]:
+    """The JSON record of one frame: where it came from, its size, the rig, the settings and the objects.
 
     Parameters
     ----------
     name, index : str, int
-        Frame name (file stem) and position in the run.
+        Frame name (outputs are named after it) and position in the run.
     result : PipelineResult
         What :class:`stereo_classic.Localizer` returned for the frame.
     rig : calib.RectifiedRig
@@ -121,27 +122,57 @@ def frame_record(name: str, index: int, result: PipelineResult, rig: RectifiedRi
         The fusion parameters; the ones a user can set (command line, config) are recorded.
     seed : int
         The RANSAC seed.
+    source : mapping, optional
+        Where the frame came from, e.g. ``{"left": "a/L.png", "right": "a/R.png"}``; recorded as ``"source"``.
+    original_size : (width, height), optional
+        The size of the input images when they were resized (``--scale``) before matching. Then
+        ``"image_size"`` is this size, ``"processed_size"`` the matched one, and every box is given in the
+        input image's pixels; ``"rig"``, the disparity files and the pictures are of the processed size.
 
     Returns
     -------
     dict
-        JSON-ready (no NaN: unknown numbers are None).
+        JSON-ready (no NaN: unknown numbers are None). ``"boxes_in"`` says which pixels the boxes are in.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from types import SimpleNamespace
+    >>> from stereo_classic.matching import SGMParams
+    >>> from stereo_classic.fusion import LocalizedObjects
+    >>> disparity = SimpleNamespace(disparity=np.zeros((50, 80), np.float32), params=SGMParams(), valid_fraction=1.0)
+    >>> result = SimpleNamespace(disparity=disparity, objects=LocalizedObjects.empty())
+    >>> rig = SimpleNamespace(focal_px=350.0, baseline_m=0.1, doffs=0.0)
+    >>> rec = frame_record("a", 0, result, rig, detector=None, fusion=FusionParams(), seed=0,
+    ...                    source={"left": "a.png", "right": "b.png"}, original_size=(160, 100))
+    >>> rec["source"], rec["image_size"], rec["processed_size"], rec["boxes_in"]
+    ({'left': 'a.png', 'right': 'b.png'}, [160, 100], [80, 50], 'input image pixels (image_size)')
     """
     params = result.disparity.params.to_dict()
     for volatile in ("threads", "memory_limit"):  # how, not what: the same result for any value
         params.pop(volatile, None)
     settings = {k: v for k, v in fusion.to_dict().items() if k in _USER_FUSION_FIELDS}
     h, w = result.disparity.disparity.shape
+    in_w, in_h = (int(original_size[0]), int(original_size[1])) if original_size is not None else (w, h)
+    objects = result.objects.to_json()
+    if (in_w, in_h) != (w, h):  # boxes back into the input image's pixels
+        sx, sy = in_w / w, in_h / h
+        for obj in objects:
+            x1, y1, x2, y2 = obj["box_xyxy"]
+            obj["box_xyxy"] = [round(x1 * sx, 2), round(y1 * sy, 2), round(x2 * sx, 2), round(y2 * sy, 2)]
     return {
         "frame": name,
         "index": index,
-        "image_size": [w, h],
+        "source": None if source is None else {str(k): v for k, v in source.items()},
+        "image_size": [in_w, in_h],
+        "processed_size": [w, h],
+        "boxes_in": "input image pixels (image_size)",
         "rig": {"focal_px": round(float(rig.focal_px), 4), "baseline_m": round(float(rig.baseline_m), 6),
                 "doffs": round(float(rig.doffs), 4)},
         "detector": detector,
         "valid_fraction": round(float(result.disparity.valid_fraction), 4),
         "settings": {**settings, "seed": seed, "matcher": params},
-        "objects": result.objects.to_json(),
+        "objects": objects,
     }
 
 

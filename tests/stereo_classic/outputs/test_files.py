@@ -116,3 +116,18 @@ def test_jsonl_sink_without_resume_starts_afresh(tmp_path):
     assert sink.done == set()
     sink.append({"frame": "new"})
     assert path.read_text() == '{"frame":"new"}\n'
+
+
+def test_record_names_the_source_files_and_gives_boxes_in_input_pixels(frame):
+    rig, result = frame
+    plain = frame_record("f", 0, result, rig, detector="stub", fusion=FusionParams(), seed=0,
+                         source={"left": "in/é L.png", "right": "in/é R.png"})
+    assert plain["source"] == {"left": "in/é L.png", "right": "in/é R.png"}
+    assert plain["image_size"] == plain["processed_size"] == [240, 160]
+    assert plain["boxes_in"] == "input image pixels (image_size)"
+    # the same result reported for input images twice as large (as --scale 0.5 makes it)
+    scaled = frame_record("f", 0, result, rig, detector="stub", fusion=FusionParams(), seed=0, original_size=(480, 320))
+    assert scaled["image_size"] == [480, 320] and scaled["processed_size"] == [240, 160] and scaled["source"] is None
+    box = np.array(plain["objects"][0]["box_xyxy"])
+    np.testing.assert_allclose(scaled["objects"][0]["box_xyxy"], box * 2, atol=0.011)
+    assert scaled["objects"][0]["distance_m"] == plain["objects"][0]["distance_m"]
