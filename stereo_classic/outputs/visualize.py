@@ -20,7 +20,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-__all__ = ["colorize", "draw_boxes", "PALETTE"]
+__all__ = ["PALETTE", "colorize", "draw_boxes", "place_labels"]
 
 #: Largest ``thickness`` / ``font_scale`` :func:`draw_boxes` accepts (OpenCV fails or stalls far beyond).
 MAX_THICKNESS = 64
@@ -135,7 +135,8 @@ def draw_boxes(
     """Draw boxes with labels such as ``"car 12.4 m"`` on a copy of ``image``.
 
     Each label sits on a filled background in the box colour (text black or white, whichever reads
-    better), above the box when there is room, inside it otherwise.
+    better), above the box when there is room, else inside or below it; no label covers another
+    (:func:`place_labels`), and labels are drawn after every box line.
 
     Parameters
     ----------
@@ -219,19 +220,73 @@ def draw_boxes(
         line = int(thickness)
     font = cv2.FONT_HERSHEY_SIMPLEX
     text_thickness = max(1, line // 2)
-    for (x1, y1, x2, y2), text, color in zip(boxes, texts, box_colors):
+    pad = 2
+    clipped = []
+    for (x1, y1, x2, y2), color in zip(boxes, box_colors):
         p1 = (int(np.clip(round(x1), 0, w - 1)), int(np.clip(round(y1), 0, h - 1)))
         p2 = (int(np.clip(round(x2), 0, w - 1)), int(np.clip(round(y2), 0, h - 1)))
         cv2.rectangle(canvas, p1, p2, color, line, cv2.LINE_8)
+        clipped.append((*p1, *p2))
+    # labels after every box, so no box line crosses a label; placed so that no label covers another
+    metrics = [cv2.getTextSize(t, font, scale, text_thickness) if t else ((0, 0), 0) for t in texts]
+    sizes = [(tw + 2 * pad, th + base + 2 * pad) if t else (0, 0) for t, ((tw, th), base) in zip(texts, metrics)]
+    for text, color, size, (left, top), ((_, th), _) in zip(texts, box_colors, sizes,
+                                                          place_labels(clipped, sizes, (w, h)), metrics):
         if not text:
             continue
-        (tw, th), base = cv2.getTextSize(text, font, scale, text_thickness)
-        pad = 2
-        top = p1[1] - th - base - 2 * pad
-        if top < 0:  # no room above: inside the box
-            top = p1[1]
-        left = min(p1[0], max(0, w - tw - 2 * pad))
-        cv2.rectangle(canvas, (left, top), (left + tw + 2 * pad, top + th + base + 2 * pad), color, cv2.FILLED)
+        cv2.rectangle(canvas, (left, top), (left + size[0] - 1, top + size[1] - 1), color, cv2.FILLED)
         cv2.putText(canvas, text, (left + pad, top + pad + th), font, scale, _text_color(color),
                     text_thickness, cv2.LINE_AA)
     return canvas
+
+
+def _overlaps(a: tuple[int, int, int, int], b: tuple[int, int, int, int]) -> bool:
+    return a[0] < b[0] + b[2] and b[0] < a[0] + a[2] and a[1] < b[1] + b[3] and b[1] < a[1] + a[3]
+
+
+def _free(rect: tuple[int, int, int, int], placed: Sequence[tuple[int, int, int, int]]) -> bool:
+    return not any(_overlaps(rect, r) for r in placed)
+
+
+def place_labels(boxes: Sequence[Sequence[int]], sizes: Sequence[tuple[int, int]], image_size: tuple[int, int]
+                 ) -> list[tuple[int, int]]:
+    """Top-left corners for box labels such that no label covers another.
+
+    Each label goes to the first free place among: above its box, inside its top edge, below it, inside its
+    bottom edge; then to the nearest free row beside the box's left edge; then anywhere free in the image.
+    Only a picture too small to hold every label side by side makes labels overlap.
+
+    Parameters
+    ----------
+    boxes : N boxes (x1, y1, x2, y2), pixels inside the image
+    sizes : N (width, height) of the labels in pixels; (0, 0) for a box without a label
+    image_size : (width, height)
+
+    Returns
+    -------
+    list of N (left, top), pixels
+
+    >>> place_labels([(10, 40, 50, 80), (10, 40, 50, 80)], [(30, 12), (30, 12)], (100, 100))
+    [(10, 28), (10, 40)]
+    """
+    w, h = int(image_size[0]), int(image_size[1])
+    placed: list[tuple[int, int, int, int]] = []
+    out = []
+    for box, (lw, lh) in zip(boxes, sizes):
+        x1, y1, _, y2 = (int(v) for v in box)
+        if lw <= 0 or lh <= 0:
+            out.append((x1, y1))
+            continue
+        max_left, max_top = max(0, w - lw), max(0, h - lh)
+        left = min(x1, max_left)
+        candidates = [(left, y) for y in (y1 - lh, y1, y2 + 1, y2 - lh + 1) if 0 <= y <= max_top]
+        spot = next(((x, y) for x, y in candidates if _free((x, y, lw, lh), placed)), None)
+        if spot is None:  # the nearest free row at the box's left edge, then anywhere
+            rows = sorted(range(max_top + 1), key=lambda y, top=y1 - lh: abs(y - top))
+            spot = next(((left, y) for y in rows if _free((left, y, lw, lh), placed)), None)
+        if spot is None:
+            spot = next(((x, y) for y in range(max_top + 1) for x in range(0, max_left + 1, max(1, lw // 4))
+                         if _free((x, y, lw, lh), placed)), (left, min(max(y1, 0), max_top)))
+        placed.append((spot[0], spot[1], lw, lh))
+        out.append((int(spot[0]), int(spot[1])))
+    return out

@@ -144,3 +144,37 @@ def test_draw_boxes_defaults_and_clipping() -> None:
 def test_draw_boxes_errors(image, boxes, labels, kwargs, exc, match) -> None:  # noqa: ANN001
     with pytest.raises(exc, match=match):
         draw_boxes(image, boxes, labels, **kwargs)
+
+
+def _label_rects(boxes, labels, size):
+    from stereo_classic.outputs.visualize import place_labels
+    w, h = size
+    scale, thick = max(0.4, min(h, w) / 800.0), 1
+    sizes = []
+    for t in labels:
+        (tw, th), base = cv2.getTextSize(t, cv2.FONT_HERSHEY_SIMPLEX, scale, thick)
+        sizes.append((tw + 4, th + base + 4))
+    return [(x, y, lw, lh) for (x, y), (lw, lh) in zip(place_labels(boxes, sizes, (w, h)), sizes)]
+
+
+@pytest.mark.parametrize("boxes", [
+    [(100, 100, 300, 250)] * 4,                                  # the same box four times
+    [(100, 100, 300, 250), (110, 105, 290, 240), (120, 0, 200, 90)],  # nested, and one at the top edge
+    [(5, 5, 60, 60), (10, 8, 70, 70), (15, 12, 80, 80), (20, 2, 90, 50), (0, 0, 639, 479)],
+])
+def test_labels_never_cover_each_other(boxes) -> None:
+    labels = [f"object {i} {2.0 + i:.1f} m" for i in range(len(boxes))]
+    rects = _label_rects(boxes, labels, (640, 480))
+    for i, a in enumerate(rects):
+        assert 0 <= a[0] and a[0] + a[2] <= 640 and 0 <= a[1] and a[1] + a[3] <= 480
+        for b in rects[i + 1:]:
+            assert not (a[0] < b[0] + b[2] and b[0] < a[0] + a[2] and a[1] < b[1] + b[3] and b[1] < a[1] + a[3]), (a, b)
+
+
+def test_overlapping_boxes_show_every_label() -> None:
+    boxes = [(100, 100, 300, 250)] * 3
+    colors = [(0, 0, 255), (0, 255, 0), (255, 0, 0)]
+    out = draw_boxes(np.zeros((480, 640, 3), np.uint8), boxes, ["a 1.0 m", "b 2.0 m", "c 3.0 m"], colors=colors)
+    for (x, y, lw, lh), color in zip(_label_rects(boxes, ["a 1.0 m", "b 2.0 m", "c 3.0 m"], (640, 480)), colors):
+        patch = out[y:y + lh, x:x + lw].reshape(-1, 3)
+        assert (patch == color).all(axis=1).mean() > 0.5  # each label's own background is visible
