@@ -256,7 +256,8 @@ class FrameProcessor:
             left, right = scale_pair(left, right, original, frame_rig.image_size)
         result = loc(left, right)
         record = frame_record(frame.name, frame.index, result, frame_rig, detector=self.detector_name,
-                              fusion=self.fusion, seed=self.seed)
+                              fusion=self.fusion, seed=self.seed, source=frame.source,
+                              original_size=tuple(original.image_size) if self.scale != 1.0 else None)
         return FrameOutput(frame.index, frame.name, result, frame_rig, record)
 
     def process_ref(self, ref: FrameRef) -> FrameOutput:

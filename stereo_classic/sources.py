@@ -66,6 +66,10 @@ class Frame:
         The frame's own calibration when the source has one (dataset scenes), else None.
     max_disparity : int or None
         The scene's disparity range when known (Middlebury ``ndisp``, ground truth), else None.
+    source : dict or None
+        Where the frame came from, as its JSON record names it: ``{"left": path, "right": path}`` for image
+        files, ``{"scene": folder}`` for a dataset scene, ``{"video": path, "frame": i}`` / ``{"camera": n,
+        "frame": i}``.
     """
 
     index: int
@@ -74,6 +78,7 @@ class Frame:
     right: np.ndarray
     rig: RectifiedRig | None = None
     max_disparity: int | None = None
+    source: dict[str, Any] | None = None
 
 
 class SceneSkipped(SourceError):
@@ -95,17 +100,20 @@ class FrameRef:
     load : callable
         ``load()`` returns ``(left, right, rig, max_disparity)``; picklable for the files of pairs and datasets
         (a ``functools.partial`` of a module-level function), so only the description travels.
+    source : dict or None
+        Where it comes from, for the frame's record (:attr:`Frame.source`).
     """
 
     index: int
     name: str
     what: str
     load: Callable[[], tuple[np.ndarray, np.ndarray, RectifiedRig | None, int | None]] = field(repr=False)
+    source: dict[str, Any] | None = None
 
     def read(self) -> Frame:
         """Read the frame's images (and, for a dataset scene, its calibration)."""
         left, right, rig, max_disparity = self.load()
-        return Frame(self.index, self.name, left, right, rig, max_disparity)
+        return Frame(self.index, self.name, left, right, rig, max_disparity, self.source)
 
 
 def _read_pair(left: Path, right: Path) -> tuple[np.ndarray, np.ndarray, None, None]:
@@ -277,7 +285,8 @@ class PairSource:
         """The frames not skipped, described (paths), not read."""
         for i, ((lp, rp), name) in enumerate(zip(self.pairs, self._names)):
             if not skip(name):
-                yield FrameRef(i, name, f"{lp} + {rp}", partial(_read_pair, lp, rp))
+                yield FrameRef(i, name, f"{lp} + {rp}", partial(_read_pair, lp, rp),
+                               {"left": str(lp), "right": str(rp)})
 
     def frames(self, skip: Callable[[str], bool] = lambda name: False) -> Iterator[Frame]:
         for ref in self.refs(skip):
@@ -382,7 +391,7 @@ class SceneSource:
         """The scenes not skipped, described (folder and loader), not read."""
         for i, ((_, what, load), name) in enumerate(zip(self.scenes, self.names or [])):
             if not skip(name):
-                yield FrameRef(i, name, what, partial(_read_scene, load, name, what))
+                yield FrameRef(i, name, what, partial(_read_scene, load, name, what), {"scene": what})
 
     def frames(self, skip: Callable[[str], bool] = lambda name: False) -> Iterator[Frame]:
         """The scenes not skipped, read one at a time (scenes without a calibration are left out)."""
@@ -424,6 +433,7 @@ class SideBySideSource:
         factory = capture_factory or cv2.VideoCapture
         what = f"camera {capture}" if self.is_camera else f"video {capture}"
         self.what = what
+        self._source: dict[str, Any] = {"camera": capture} if self.is_camera else {"video": os.fspath(capture)}
         self.cap = _quietly(lambda: factory(capture if self.is_camera else os.fspath(capture)))
         if self.cap is None or not self.cap.isOpened():
             raise SourceError(f"cannot open {what}" + (" (is it connected and free?)" if self.is_camera else
@@ -465,7 +475,8 @@ class SideBySideSource:
             if not skip(name):
                 half = image.shape[1] // 2
                 yield FrameRef(i, name, f"{self.what} frame {i}", partial(
-                    _given, np.ascontiguousarray(image[:, :half]), np.ascontiguousarray(image[:, half:])))
+                    _given, np.ascontiguousarray(image[:, :half]), np.ascontiguousarray(image[:, half:])),
+                    {**self._source, "frame": i})
             i += 1
 
     def close(self) -> None:

@@ -86,3 +86,22 @@ def test_scale_and_errors(tmp_path, pairs):
     left = io.read_image(files[0][0])
     with pytest.raises(ValueError, match="calibration is for 240x160"):
         scale_pair(left[:100], left[:100], rig, (120, 80))
+
+
+def test_records_name_the_source_files_and_scaled_runs_report_input_pixels(tmp_path, pairs):
+    from tests.helpers.detectors import FixedBoxes
+
+    files, rig = pairs
+    detector = FixedBoxes([(20, 15, 60, 45)], names=("box",), confidence=0.9)
+    records = {}
+    for scale in (1.0, 0.5):
+        out = tmp_path / f"s{scale}"
+        run_source(PairSource(files[:1]), FrameWriter(out, save=("json",)), params_for=_params, rig=rig,
+                   detector=detector, detector_name="fixed", scale=scale)
+        records[scale] = json.loads((out / "f0_L_objects.json").read_text())
+    full, half = records[1.0], records[0.5]
+    assert full["source"] == half["source"] == {"left": str(files[0][0]), "right": str(files[0][1])}
+    assert full["image_size"] == half["image_size"] == [240, 160] and half["processed_size"] == [120, 80]
+    # FixedBoxes returns the same pixel box for any image: at half size it covers twice the input pixels
+    assert full["objects"][0]["box_xyxy"] == [20.0, 15.0, 60.0, 45.0]
+    assert half["objects"][0]["box_xyxy"] == [40.0, 30.0, 120.0, 90.0]
