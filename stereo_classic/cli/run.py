@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import os
 import sys
 import time
 from contextlib import ExitStack
@@ -39,7 +40,12 @@ from stereo_classic.cli.options import add_options, read_options
 from stereo_classic.fusion import FusionInputError, FusionParams, as_generator
 from stereo_classic.fusion.objects import TABLE_COLUMNS
 from stereo_classic.matching import SGMParams
-from stereo_classic.outputs import SAVE_KINDS, FrameWriter
+from stereo_classic.outputs import (
+    SAVE_KINDS,
+    FrameWriter,
+    OutputFolder,
+    SettingsMismatchError,
+)
 from stereo_classic.pipeline import PipelineResult, format_timings
 from stereo_classic.runner import ON_ERROR, DetectorSpec, RunSummary, run_source
 
@@ -168,7 +174,7 @@ def _open_detector(cfg: dict[str, Any]) -> tuple[OnnxDetector | None, str | None
         path = resolve_model(cfg["model"])
     except ModelNotFoundError as exc:
         hint = str(exc).splitlines()[0]
-        if cfg["model"] != RUN_DEFAULTS["model"]:  # a model the user named: a usage error, never a quiet fallback
+        if cfg["model"] != RUN_DEFAULTS["model"][0]:  # a model the user named: a usage error, never a quiet fallback
             raise UsageError(f"--model {cfg['model']}: {hint} (--model none computes depth only)") from None
         if "python -m detectors fetch" not in hint:
             hint += "; `python -m detectors fetch` downloads the official models"
@@ -227,7 +233,13 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
             text = table if table else ("no objects found" if detector is not None else "depth only (no detector)")
         tqdm.write(text, file=sys.stdout)
 
+    settings = _run_settings(args, cfg, detector_name, sorted(writer.kinds), sequence)
     with ExitStack() as stack:
+        try:  # one run per folder; its settings recorded; a resume must match them
+            stack.enter_context(OutputFolder(outdir, settings, resume=args.resume,
+                                             outputs=[SAVE_KINDS[k] for k in sorted(writer.kinds)]))
+        except SettingsMismatchError as exc:
+            raise UsageError(str(exc)) from None
         executor = None
         if cfg["executor"] == "dask":
             executor = stack.enter_context(_dask_executor(cfg, quiet))
@@ -242,6 +254,34 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
             on_error=cfg["on_error"], executor=executor)
         wall = time.perf_counter() - started
     return _report(summary, source, outdir, quiet, wall)
+
+
+def _input_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """The input of a run as recorded in its folder (absolute paths; --max-frames is not part of it)."""
+    def absolute(path: str | None) -> str | None:
+        return None if path is None else os.path.abspath(path)
+
+    if args.left is not None:
+        return {"left": [absolute(p) for p in args.left], "right": [absolute(p) for p in args.right or []],
+                "calib": absolute(args.calib), "rectify": bool(args.rectify)}
+    if args.dataset is not None:
+        return {"dataset": absolute(args.dataset)}
+    if args.video is not None:
+        return {"video": absolute(args.video), "calib": absolute(args.calib), "rectify": bool(args.rectify)}
+    if args.camera is not None:
+        return {"camera": args.camera, "calib": absolute(args.calib), "rectify": bool(args.rectify)}
+    return {"demo": True}
+
+
+def _run_settings(args: argparse.Namespace, cfg: dict[str, Any], detector_name: str | None, kinds: list[str],
+                  sequence: bool) -> dict[str, Any]:
+    """What decides the files of a run (recorded in ``run.json``; ``--resume`` must match): not threads, executor,
+    --on-error, --max-frames or progress, which change how, not what."""
+    detector = {"model": detector_name, "conf": cfg["conf"], "iou": cfg["iou"]} if detector_name else {"model": None}
+    return {"input": _input_settings(args), "outputs": kinds, "sequence": sequence, **detector,
+            "classes": list(cfg["classes"]), **{k: cfg[k] for k in FUSION_OPTIONS}, "seed": cfg["seed"],
+            "scale": cfg["scale"], "matcher": {k: v for k, v in cfg["matcher"].items()
+                                               if k not in ("threads", "memory_limit")}}
 
 
 def _dask_executor(cfg: dict[str, Any], quiet: bool) -> Any:

@@ -15,6 +15,11 @@ from stereo_classic.outputs.files import (
     frame_record,
     write_all_or_nothing,
 )
+from stereo_classic.outputs.folder import (
+    FolderBusyError,
+    OutputFolder,
+    SettingsMismatchError,
+)
 from stereo_classic.outputs.visualize import PALETTE, colorize, draw_boxes
 
 __all__ = [
@@ -22,8 +27,11 @@ __all__ = [
     "JSONL_NAME",
     "PALETTE",
     "SAVE_KINDS",
+    "FolderBusyError",
     "FrameWriter",
     "JsonlSink",
+    "OutputFolder",
+    "SettingsMismatchError",
     "box_labels",
     "colorize",
     "draw_boxes",

@@ -94,9 +94,17 @@ def test_demo_prints_the_table_and_writes_every_output(tmp_path, shared_models, 
     assert record["detector"] == "yolox_nano" and len(moto[0]["xyz_m"]) == 3
 
 
-def test_demo_offline_without_a_model_still_writes_depth(tmp_path, capsys):
+def test_demo_offline_without_a_model_still_writes_depth(tmp_path, capsys, monkeypatch):
+    # the default model missing (a named one missing is a usage error: tests/stereo_classic/cli/test_exit_codes.py)
+    from detectors import ModelNotFoundError
+    from stereo_classic.cli import run as run_cli
+
+    def not_found(name):
+        raise ModelNotFoundError(f"model file {tmp_path / 'missing.onnx'} does not exist")
+
+    monkeypatch.setattr(run_cli, "resolve_model", not_found)
     out = tmp_path / "o"
-    assert main(["run", "-o", str(out), "--model", str(tmp_path / "missing.onnx"), "--scale", "0.5"]) == 0
+    assert main(["run", "-o", str(out), "--scale", "0.5"]) == 0
     captured = capsys.readouterr()
     warning = [line for line in captured.err.splitlines() if "detector" in line]
     assert len(warning) == 1 and "missing.onnx" in warning[0]
@@ -395,7 +403,8 @@ def test_demo_json_identical_across_thread_counts_with_the_detector(tmp_path, yo
 def test_save_selects_the_outputs(tmp_path):
     out = tmp_path / "o"
     assert main(["-q", "run", "--model", "none", "--scale", "0.25", "--save", "pfm,json", "-o", str(out)]) == 0
-    assert sorted(p.name for p in out.iterdir()) == ["motorcycle_skimage_disparity.pfm", "motorcycle_skimage_objects.json"]
+    assert sorted(p.name for p in out.iterdir() if p.name not in ("run.json", ".stereo_classic.lock")) == [
+        "motorcycle_skimage_disparity.pfm", "motorcycle_skimage_objects.json"]
 
 
 def test_a_failing_write_leaves_no_part_of_that_frame(tmp_path, pairs, monkeypatch, capsys):
