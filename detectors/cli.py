@@ -84,7 +84,9 @@ def _detect(args) -> int:
         detector = OnnxDetector(args.model or "yolox_nano", conf_threshold=args.conf, iou_threshold=args.iou,
                                 threads=args.threads, classes=args.classes)
     except (ValueError, FileNotFoundError) as exc:
-        log.error("%s", exc)
+        if args.verbose:
+            log.exception("cannot open the detector")
+        log.error("error: %s", exc)
         return 1 if isinstance(exc, FileNotFoundError) or type(exc).__name__ == "ModelError" else 2
     status = 0
     times: dict[str, list[float]] = {}
@@ -100,7 +102,16 @@ def _detect(args) -> int:
             log.error("cannot read image: %s", exc)
             status = 1
             continue
-        dets = detector.detect(image)
+        try:
+            dets = detector.detect(image)
+        except (ValueError, RuntimeError, MemoryError) as exc:  # ModelError: the model fails on real images
+            if args.verbose:
+                log.exception("detection failed")
+            log.error("error: %s: %s", path, exc)
+            status = 1
+            if type(exc).__name__ == "ModelError":
+                break  # the next images would fail the same way
+            continue
         print(json.dumps({"image": path, "detections": dets.to_json(),
                           "timings_ms": {k: round(v, 2) for k, v in detector.last_timings_ms.items()}}))
         log.debug("%s: %d objects (%.1f ms)", path, len(dets), detector.last_timings_ms["total"])

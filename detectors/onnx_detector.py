@@ -65,8 +65,13 @@ class OnnxDetector:
         Force the output decoder, one of ``detectors.decoders.FAMILIES``; default: recognised from
         the output shapes, metadata and file name (rules in :mod:`detectors.decoders`).
     input_size : int or (width, height), optional
-        Input size for models with dynamic input dimensions (default: metadata ``imgsz``, else 640);
-        must match a fixed-size model.
+        Input size for models with dynamic input dimensions (default: the size the model was exported
+        with, metadata ``imgsz``, else 640); must match a fixed-size model.
+    minimal_padding : bool
+        Dynamic-size models only: letterbox each image into the smallest multiple-of-32 rectangle around
+        its resized copy (the longer side scaled to ``input_size``), as Ultralytics' ``predict`` does
+        (``auto=True``), instead of padding it to the full square ``input_size``. Less padding to run
+        through (a 1242x375 image becomes 640x224 instead of 640x640), boxes as the exporter saw them.
     preprocessing : Preprocessing, optional
         Override the family's colour order, scaling, normalisation and letterbox placement.
     max_detections : int
@@ -92,6 +97,7 @@ class OnnxDetector:
         input_size: int | tuple[int, int] | None = None,
         preprocessing: Preprocessing | None = None,
         max_detections: int = 300,
+        minimal_padding: bool = False,
     ) -> None:
         import onnxruntime as ort
 
@@ -172,6 +178,12 @@ class OnnxDetector:
                 raise ValueError(f"`input_size` of a dynamic-size model must be multiples of 32, got {size}")
             size = (fixed[0] or size[0], fixed[1] or size[1])
         self.input_size: tuple[int, int] = size  # (width, height)
+        if not isinstance(minimal_padding, (bool, np.bool_)):
+            raise ValueError(f"`minimal_padding` must be True or False, got {minimal_padding!r}")  # noqa: TRY004
+        if minimal_padding and fixed[0] is not None and fixed[1] is not None:
+            raise ValueError(f"`minimal_padding` needs a model with dynamic input size; model {where} has the fixed "
+                             f"input size {fixed} (width, height)")
+        self.minimal_padding = bool(minimal_padding)
 
         # ---------------------------------------------------------------- class names given
         given_names: tuple[str, ...] | None = None
@@ -219,6 +231,10 @@ class OnnxDetector:
         self._mean = None if preprocessing.mean is None else np.asarray(preprocessing.mean, np.float32).reshape(3, 1, 1)
         self._inv_std = None if preprocessing.std is None else (1.0 / np.asarray(preprocessing.std, np.float32)).reshape(3, 1, 1)
         self.last_timings_ms: dict[str, float] = {}
+        #: Candidate boxes (above ``conf_threshold``) the last :meth:`detect` dropped, by reason: "inverted"
+        #: (x1 > x2 or y1 > y2: an export without DFL can predict negative distances) and "non_finite".
+        self.last_dropped: dict[str, int] = {"inverted": 0, "non_finite": 0}
+        self._warned_inverted = False
         log.debug("loaded %r", self)
 
     # ------------------------------------------------------------------ helpers
@@ -275,11 +291,24 @@ class OnnxDetector:
         return np.zeros(shape, dtype=self._input_dtype)
 
     # ------------------------------------------------------------------ run
+    def input_size_for(self, width: int, height: int) -> tuple[int, int]:
+        """The model input (width, height) an image of ``width`` x ``height`` is letterboxed into.
+
+        ``input_size``, or with ``minimal_padding`` the smallest multiples of 32 that hold the image resized so
+        that it fits ``input_size`` (Ultralytics' ``auto=True`` rectangle).
+        """
+        if not self.minimal_padding:
+            return self.input_size
+        in_w, in_h = self.input_size
+        r = min(in_w / width, in_h / height)
+        nw, nh = min(in_w, max(1, round(width * r))), min(in_h, max(1, round(height * r)))
+        return min(in_w, -(-nw // 32) * 32), min(in_h, -(-nh // 32) * 32)
+
     def preprocess(self, image: np.ndarray) -> tuple[np.ndarray, Letterbox]:
         """Image (BGR uint8 or grey) -> model input tensor and the letterbox for mapping boxes back."""
         img = check_image(image)
         prep = self.preprocessing
-        padded, lb = letterbox(img, self.input_size, prep)
+        padded, lb = letterbox(img, self.input_size_for(img.shape[1], img.shape[0]), prep)
         if self._input_dtype == np.uint8:
             x = cv2.cvtColor(padded, cv2.COLOR_BGR2RGB) if prep.rgb else padded
             x = x.transpose(2, 0, 1)[None] if self.nchw else x[None]
@@ -295,11 +324,27 @@ class OnnxDetector:
             blob = blob.astype(self._input_dtype)
         return blob, lb
 
-    def postprocess(self, outputs: Sequence[np.ndarray], lb: Letterbox) -> Detections:
-        """Raw session outputs -> :class:`Detections` in original-image pixels."""
-        w, h = self.input_size
+    def postprocess(self, outputs: Sequence[np.ndarray], lb: Letterbox, *,
+                    input_size: tuple[int, int] | None = None) -> Detections:
+        """Raw session outputs -> :class:`Detections` in original-image pixels.
+
+        ``input_size`` (width, height) is the size of the input the outputs came from (default
+        ``self.input_size``). Boxes with NaN/inf coordinates or inverted corners (x1 > x2 or y1 > y2) are
+        dropped and counted in ``self.last_dropped`` (inverted ones logged, as a warning the first time).
+        """
+        w, h = input_size or self.input_size
         xyxy, scores, cid = decode(self.layout, outputs, (h, w), self.conf_threshold)
-        ok = np.all(np.isfinite(xyxy), axis=1) & np.isfinite(scores) & (cid >= 0) & (cid < len(self.class_names))
+        finite = np.all(np.isfinite(xyxy), axis=1)
+        with np.errstate(invalid="ignore"):
+            inverted = finite & ((xyxy[:, 2] < xyxy[:, 0]) | (xyxy[:, 3] < xyxy[:, 1]))
+        self.last_dropped = {"inverted": int(inverted.sum()), "non_finite": int((~finite).sum())}
+        if self.last_dropped["inverted"]:
+            (log.debug if self._warned_inverted else log.warning)(
+                "%s: dropped %d box(es) with x1 > x2 or y1 > y2 (negative predicted size; exports without DFL "
+                "such as YOLO26 can give them)", self.model_path.name if self.model_path else "model",
+                self.last_dropped["inverted"])
+            self._warned_inverted = True
+        ok = finite & ~inverted & np.isfinite(scores) & (cid >= 0) & (cid < len(self.class_names))
         if self._allowed is not None:
             ok &= np.isin(cid, self._allowed)
         if not np.all(ok):
@@ -336,9 +381,15 @@ class OnnxDetector:
         t0 = time.perf_counter()
         x, lb = self.preprocess(image)
         t1 = time.perf_counter()
-        raw = self.session.run(None, {self.input_name: x})
+        try:
+            raw = self.session.run(None, {self.input_name: x})
+        except Exception as exc:  # noqa: BLE001 (onnxruntime's own classes, Fail, InvalidArgument, ...)
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            where = self.model_path if self.model_path is not None else "<model bytes>"
+            raise ModelError(f"model {where} failed on a {x.shape} input: {first[:300]}") from None
         t2 = time.perf_counter()
-        dets = self.postprocess(raw, lb)
+        dets = self.postprocess(raw, lb, input_size=(int(x.shape[3 if self.nchw else 2]),
+                                                     int(x.shape[2 if self.nchw else 1])))
         t3 = time.perf_counter()
         self.last_timings_ms = {"preprocess": (t1 - t0) * 1e3, "inference": (t2 - t1) * 1e3,
                                 "postprocess": (t3 - t2) * 1e3, "total": (t3 - t0) * 1e3}

@@ -1,0 +1,49 @@
+"""Exit codes that do not lie (issue #15 item 10): a named model that cannot be found is a usage error (2), the
+default model missing still falls back to depth only; a file that is not a video fails (1) in one line, without
+FFmpeg's own noise on the terminal."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from detectors import ModelNotFoundError
+from stereo_classic.cli import main
+from stereo_classic.cli import run as run_cli
+
+OAKD = {"width": 640, "height": 480, "baseline_meters": 0.075, "fx": 451.03, "fy": 451.03,
+        "cx0": 299.04, "cx1": 299.04, "cy": 255.17}
+
+
+@pytest.mark.parametrize("model", ["yolox_nan", "./no/such/model.onnx", "missing.onnx"])
+def test_a_named_model_that_is_not_found_is_a_usage_error(tmp_path, capsys, model):
+    out = tmp_path / "o"
+    assert main(["run", "--model", model, "-o", str(out), "--num-disparities", "64"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: --model ") and "--model none" in err and "Traceback" not in err
+    assert not out.exists()  # nothing written for a run that did not do what was asked
+
+
+def test_the_default_model_missing_falls_back_to_depth_only(tmp_path, capsys, monkeypatch):
+    def not_found(name):
+        raise ModelNotFoundError(f"model {name!r} not found: put it somewhere")
+
+    monkeypatch.setattr(run_cli, "resolve_model", not_found)
+    out = tmp_path / "o"
+    assert main(["run", "-o", str(out), "--num-disparities", "64", "--save", "json"]) == 0
+    assert "no detector, computing depth only" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("name", "content"), [("notes.mp4", b"hello, not a video\n"),
+                                                ("noise.avi", bytes(range(256)) * 12)])
+def test_a_file_that_is_not_a_video_fails_in_one_line(tmp_path, capfd, name, content):
+    video = tmp_path / name
+    video.write_bytes(content)
+    calib = tmp_path / "calib.json"
+    calib.write_text(json.dumps(OAKD))
+    out = tmp_path / "o"
+    assert main(["run", "--video", str(video), "--calib", str(calib), "--model", "none", "-o", str(out)]) == 1
+    err = capfd.readouterr().err  # file descriptor 2: what FFmpeg writes directly lands here too
+    assert err.strip().splitlines() == [f"error: cannot open video {video} (not a video OpenCV can decode)"]
+    assert not out.exists()
