@@ -1,11 +1,18 @@
 """``--config file.toml`` for ``python -m stereo_classic run``: file values merged with flags.
 
 Precedence, lowest first: built-in defaults, the TOML file, flags given on the command line. Top-level
-keys are the run options (the long flag names with ``_`` for ``-``); the ``[matcher]`` table holds any
-``SGMParams`` field. ``--dump-config`` prints the merged result as TOML, which ``--config`` reads back.
+keys are the run options (the long flag names with ``_`` for ``-``), the input options included (``left``,
+``right``, ``calib``, ``rectify``, ``dataset``, ``video``, ``camera``; paths relative to the current folder,
+as on the command line; an input kind given as a flag replaces the file's); the ``[matcher]`` table holds any
+``SGMParams`` field. Every value form a flag accepts is accepted as a TOML string too (``census_window =
+"9x7"``, ``lr_check = "off"``, ``scale = "0.5"``, ``classes = "car,person"``). ``--dump-config`` prints the
+merged result as TOML, which ``--config`` reads back.
 
 Example::
 
+    left = ["left/*.png"]
+    right = ["right/*.png"]
+    calib = "rig.yaml"
     model = "yolox_nano"
     conf = 0.35
     classes = ["car", "person"]
@@ -15,6 +22,7 @@ Example::
     [matcher]
     num_disparities = 128
     cost = "census"
+    census_window = "9x7"
 """
 
 from __future__ import annotations
@@ -27,12 +35,21 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from stereo_classic.cli.options import option_fields
+from stereo_classic.cli.options import _scalar_type, option_fields
 from stereo_classic.fusion import FusionParams
 from stereo_classic.matching import SGMParams
 from stereo_classic.outputs import DEFAULT_SAVE
 
-__all__ = ["RUN_DEFAULTS", "FUSION_OPTIONS", "ConfigError", "load_config", "merge_config", "dump_config"]
+__all__ = ["FUSION_OPTIONS", "INPUT_OPTIONS", "RUN_DEFAULTS", "ConfigError", "dump_config", "load_config",
+           "merge_config"]
+
+#: The input options (``cli/inputs.py``) a config file may hold, with their kinds; None = not given.
+_INPUT_DEFAULTS: dict[str, tuple[Any, str]] = {
+    "left": (None, "list[str]"), "right": (None, "list[str]"), "calib": (None, "str"), "rectify": (False, "bool"),
+    "dataset": (None, "str"), "video": (None, "str"), "camera": (None, "int"),
+}
+#: The input options that choose the kind of input: given as flags, they replace the config file's.
+_INPUT_KINDS = ("left", "right", "dataset", "video", "camera")
 
 
 def _kind(value: Any) -> str:
@@ -66,11 +83,15 @@ def _run_defaults() -> dict[str, tuple[Any, str]]:
         "executor": "serial",
         "scheduler": "",
     }
-    return {k: (v, "list[str]" if k in ("save", "classes") else _kind(v)) for k, v in table.items()}
+    kinds = {k: (v, "list[str]" if k in ("save", "classes") else _kind(v)) for k, v in table.items()}
+    return {**_INPUT_DEFAULTS, **kinds}
 
 
 #: Run options with their defaults and kinds (``kind`` decides how TOML and flag values are checked).
 RUN_DEFAULTS: dict[str, tuple[Any, str]] = _run_defaults()
+
+#: The input options among :data:`RUN_DEFAULTS` (what ``--left``, ``--dataset``, ... set).
+INPUT_OPTIONS: tuple[str, ...] = tuple(_INPUT_DEFAULTS)
 
 #: The run options that are ``FusionParams`` fields.
 FUSION_OPTIONS: tuple[str, ...] = tuple(f.name for f in option_fields(FusionParams))
@@ -93,10 +114,20 @@ def _check(key: str, value: Any, kind: str, where: str) -> Any:
             fail("true or false")
         return value
     if kind == "int":
+        if isinstance(value, str):  # as on the command line: "3"
+            try:
+                value = int(value.strip())
+            except ValueError:
+                fail("an integer")
         if isinstance(value, bool) or not isinstance(value, int):
             fail("an integer")
         return value
     if kind == "float":
+        if isinstance(value, str):  # as on the command line: "0.5"
+            try:
+                value = float(value.strip())
+            except ValueError:
+                fail("a finite number")
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
             fail("a finite number")
         return float(value)
@@ -107,6 +138,12 @@ def _check(key: str, value: Any, kind: str, where: str) -> Any:
             fail("a list of strings")
         return list(value)
     if kind == "range":
+        if isinstance(value, str):  # as on the command line: "0.5 60"
+            value = value.replace(",", " ").split()
+            try:
+                value = [float(v) for v in value]
+            except ValueError:
+                fail("two numbers [near, far] in metres")
         if (not isinstance(value, (list, tuple)) or len(value) != 2
                 or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)):
             fail("two numbers [near, far] in metres")
@@ -116,6 +153,32 @@ def _check(key: str, value: Any, kind: str, where: str) -> Any:
 
 def _matcher_fields() -> dict[str, Any]:
     return {f.name: f for f in dataclasses.fields(SGMParams)}
+
+
+def _matcher_value(key: str, value: Any, field: dataclasses.Field, where: str) -> Any:
+    """A ``[matcher]`` value: TOML lists become tuples; a string is read as its flag reads it ("9x7", "off")."""
+    if isinstance(value, list):
+        return tuple(value)
+    if not isinstance(value, str) or not _is_valued_flag(field):
+        return value
+    if "parse" in field.metadata:
+        convert = field.metadata["parse"]
+    else:
+        try:
+            convert = _scalar_type(field)
+        except TypeError:
+            return value
+        if convert is str:
+            return value
+    try:
+        return convert(value)
+    except ValueError as exc:
+        raise ConfigError(f"{where}: [matcher] `{key}`: {exc}") from None
+
+
+def _is_valued_flag(field: dataclasses.Field) -> bool:
+    """True for a field that is a command-line flag (it has a help text) and not a switch."""
+    return "help" in field.metadata and not isinstance(field.default, bool)
 
 
 def load_config(path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -145,7 +208,7 @@ def load_config(path: str | os.PathLike[str]) -> dict[str, Any]:
             unknown = sorted(set(value) - set(fields))
             if unknown:
                 raise ConfigError(f"{p}: unknown [matcher] key {unknown[0]!r}; expected some of: {', '.join(fields)}")
-            out["matcher"] = {k: (tuple(v) if isinstance(v, list) else v) for k, v in value.items()}
+            out["matcher"] = {k: _matcher_value(k, v, fields[k], str(p)) for k, v in value.items()}
             continue
         if key not in RUN_DEFAULTS:
             raise ConfigError(f"{p}: unknown key {key!r}; expected some of: {', '.join(RUN_DEFAULTS)}, [matcher]")
@@ -160,6 +223,9 @@ def merge_config(file_config: Mapping[str, Any] | None, flags: Mapping[str, Any]
     merged = {k: (list(v) if isinstance(v, list) else v) for k, (v, _) in RUN_DEFAULTS.items()}
     file_config = dict(file_config or {})
     matcher = dict(file_config.pop("matcher", {}) or {})
+    if any(flags.get(k) is not None for k in _INPUT_KINDS):  # an input given as flags replaces the file's
+        for key in _INPUT_KINDS:
+            file_config.pop(key, None)
     merged.update(file_config)
     for key, value in flags.items():
         if value is not None:

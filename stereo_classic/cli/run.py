@@ -28,6 +28,7 @@ from detectors import ModelNotFoundError, OnnxDetector, resolve_model
 from stereo_classic import sources
 from stereo_classic.cli.config import (
     FUSION_OPTIONS,
+    INPUT_OPTIONS,
     RUN_DEFAULTS,
     ConfigError,
     dump_config,
@@ -119,6 +120,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 def _options(args: argparse.Namespace) -> dict[str, Any]:
     """Defaults < config file < flags, checked; ``cfg["fusion"]`` is the FusionParams built from them."""
     flags = {k: getattr(args, k, None) for k in RUN_DEFAULTS}
+    if not flags.get("rectify"):  # a store_true switch: absent is "not given", so the config file may set it
+        flags["rectify"] = None
     matcher_flags = read_options(args, SGMParams, dest_prefix="matcher_")
     try:
         file_cfg = load_config(args.config) if args.config else None
@@ -201,6 +204,8 @@ def func(args: argparse.Namespace) -> int:
     if args.dump_config:
         sys.stdout.write(dump_config(cfg))
         return 0
+    for key in INPUT_OPTIONS:  # the input as merged (flags over the config file) is the input of the run
+        setattr(args, key, cfg[key])
     source, base_rig = open_source(args, cfg["max_frames"] or None)
     try:
         return _run(args, cfg, source, base_rig)

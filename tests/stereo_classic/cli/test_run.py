@@ -361,7 +361,8 @@ def test_dataset_folder_with_max_frames_and_scale(tmp_path, shared_data, capsys)
             "-o", str(out)]
     assert main(argv) == 0
     records = [json.loads(line) for line in (out / "objects.jsonl").read_text().splitlines()]
-    assert len(records) == 2 and all(r["image_size"] == [320, 240] for r in records)
+    assert len(records) == 2 and all(r["processed_size"] == [320, 240] for r in records)
+    assert all(r["image_size"] == [640, 480] for r in records)  # the input size: boxes are in its pixels
     for r in records:
         _check_outputs(out, r["frame"], (240, 320), kinds=EVERY_KIND[:5])
 
