@@ -95,6 +95,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     log.propagate = False
     log.setLevel(logging.DEBUG if args.verbose else logging.WARNING if args.quiet else logging.INFO)
 
+    from stereo_classic.cli import UsageError
+    from stereo_classic.cli.paths import check_output_dir
+
+    try:  # before any work: an --out that cannot be a folder fails now, not after the benchmark
+        check_output_dir(args.out, "--out")
+    except UsageError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+
     from benchmarks.run import DEFAULT_SIZES, BenchConfig, run_benchmark
     from benchmarks.scenes import default_data_dir, parse_size
     from benchmarks.stereo_onnx import parse_options

@@ -8,8 +8,10 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 __all__ = ["main", "build_parser"]
 
@@ -45,6 +47,16 @@ def _configure_logging(verbose: int, quiet: bool) -> None:
     root.propagate = False
 
 
+def _unwritable(folder: Path) -> str:
+    """Why a file cannot be written into ``folder`` (created if needed), or "" when it can."""
+    base = next((p for p in (folder, *folder.parents) if p.exists()), Path("."))
+    if not base.is_dir():
+        return f"{base} is a file, not a folder"
+    if not os.access(base, os.W_OK | os.X_OK):
+        return f"no permission to write in {base}"
+    return ""
+
+
 def _fetch(args) -> int:
     from detectors.errors import ModelError
     from detectors.models import KNOWN_MODELS, cache_dir, download_model, verify_sha256
@@ -54,6 +66,11 @@ def _fetch(args) -> int:
         log.error("no official download for model %r; known: %s", args.name, ", ".join(sorted(KNOWN_MODELS)))
         return 2
     target = cache_dir() / f"{args.name}.onnx"
+    unwritable = _unwritable(target.parent)
+    if unwritable:  # before the download, not after it
+        log.error("cannot save %s into %s: %s; set XDG_CACHE_HOME to a writable folder", args.name, target.parent,
+                  unwritable)
+        return 1
     if target.is_file() and not args.force and verify_sha256(target, known.sha256):
         log.info("%s already in the cache, sha256 ok", target)
         print(target)

@@ -17,6 +17,7 @@ from typing import Any
 
 import calib
 from stereo_classic.cli.errors import UsageError
+from stereo_classic.cli.paths import check_output_file
 
 __all__ = ["add_parser", "func", "find_pairs"]
 
@@ -106,6 +107,10 @@ def func(args: argparse.Namespace) -> int:
     """Run the ``calibrate`` sub-command."""
     if args.folder and (args.left or args.right):
         raise UsageError("give either --folder or --left/--right, not both")
+    output = Path(args.output)
+    if output.suffix.lower() not in (".yaml", ".yml", ".xml"):
+        raise UsageError(f"--output must end in .yaml, .yml or .xml, got {output.name!r}")
+    check_output_file(output, "-o/--output")
     if args.folder:
         pairs = find_pairs(args.folder)
     elif args.left and args.right:
@@ -119,11 +124,6 @@ def func(args: argparse.Namespace) -> int:
         raise UsageError("no left/right image pairs found")
     if args.min_views < 3:
         raise UsageError(f"--min-views must be >= 3, got {args.min_views}")
-    output = Path(args.output)
-    if output.suffix.lower() not in (".yaml", ".yml", ".xml"):
-        raise UsageError(f"--output must end in .yaml, .yml or .xml, got {output.name!r}")
-    if not output.parent.is_dir():
-        raise UsageError(f"--output folder {output.parent} does not exist")
 
     cols, rows = args.board_size
     try:

@@ -15,7 +15,13 @@ from typing import Any
 from stereo_classic import io
 from stereo_classic.cli.errors import UsageError
 from stereo_classic.cli.options import add_options, option_names, read_options
-from stereo_classic.matching import DisparityMap, SGMParams, compute_disparity, parse_bytes
+from stereo_classic.cli.paths import check_output_file
+from stereo_classic.matching import (
+    DisparityMap,
+    SGMParams,
+    compute_disparity,
+    parse_bytes,
+)
 from stereo_classic.outputs import colorize, write_all_or_nothing
 
 __all__ = ["add_parser", "func"]
@@ -72,18 +78,13 @@ def _outputs(args: argparse.Namespace) -> tuple[Path, Path | None]:
     if args.no_png:
         if args.png is not None:
             raise UsageError("--png and --no-png contradict each other")
-        if not out.parent.is_dir():
-            raise UsageError(f"-o/--output: folder {str(out.parent)!r} does not exist")
-        return out, None
+        return check_output_file(out, "-o/--output"), None
     png = Path(args.png) if args.png is not None else out.with_suffix(".png")
     if png.suffix.lower() != ".png":
         raise UsageError(f"--png must name a .png file, got {str(png)!r}")
     if png.resolve() == out.resolve():
         raise UsageError("--png must differ from -o/--output")
-    for path, option in ((out, "-o/--output"), (png, "--png")):
-        if not path.parent.is_dir():
-            raise UsageError(f"{option}: folder {str(path.parent)!r} does not exist")
-    return out, png
+    return check_output_file(out, "-o/--output"), check_output_file(png, "--png")
 
 
 def func(args: argparse.Namespace) -> int:

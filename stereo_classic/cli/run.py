@@ -38,6 +38,7 @@ from stereo_classic.cli.config import (
 from stereo_classic.cli.errors import UsageError
 from stereo_classic.cli.inputs import Source, add_input_options, open_source
 from stereo_classic.cli.options import add_options, read_options
+from stereo_classic.cli.paths import check_output_dir
 from stereo_classic.fusion import FusionInputError, FusionParams, as_generator
 from stereo_classic.fusion.objects import TABLE_COLUMNS
 from stereo_classic.matching import SGMParams
@@ -206,6 +207,7 @@ def func(args: argparse.Namespace) -> int:
         return 0
     for key in INPUT_OPTIONS:  # the input as merged (flags over the config file) is the input of the run
         setattr(args, key, cfg[key])
+    check_output_dir(cfg["output"], "-o/--output")  # before the input is opened (a dataset scan takes time)
     source, base_rig = open_source(args, cfg["max_frames"] or None)
     try:
         return _run(args, cfg, source, base_rig)

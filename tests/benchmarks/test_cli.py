@@ -154,3 +154,17 @@ def test_helpers():
     inputs = speed_inputs([scene], [(64, 32, 16), (40, 4, 16)])
     assert [i.name for i in inputs] == ["64x32x16"]           # 40x4x16 is the scene itself
     assert inputs[0].left.shape == (32, 64, 3) and "resized" in inputs[0].note
+
+
+def _no_work(*args, **kwargs):  # pragma: no cover - reaching it is the failure
+    raise AssertionError("the command started working before checking its output path")
+
+
+def test_benchmarks_out_on_an_existing_file_fails_at_once(tmp_path, capsys, monkeypatch):
+    import benchmarks.run
+    from benchmarks.__main__ import main as bench_main
+
+    monkeypatch.setattr(benchmarks.run, "run_benchmark", _no_work)
+    (tmp_path / "report").write_text("x")
+    assert bench_main(["--out", str(tmp_path / "report"), "--no-progress"]) == 2
+    assert "--out" in capsys.readouterr().err

@@ -230,3 +230,15 @@ def test_downloaded_model_mode_follows_the_umask(isolated, tmp_path):
         os.umask(old)
     assert out.stat().st_mode & 0o777 == 0o644  # like io.atomic_write, not mkstemp's 0o600
     assert [p.name for p in (tmp_path / "dest").iterdir()] == ["tiny.onnx"]
+
+
+def _no_network(*args, **kwargs):  # pragma: no cover - reaching it is the failure
+    raise AssertionError("fetch started the download before checking the cache folder")
+
+
+def test_fetch_checks_the_cache_before_downloading(tmp_path, capsys, monkeypatch):
+    (tmp_path / "cache").write_text("x")  # the cache's parent is a file
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.setattr(models, "download_model", _no_network)
+    assert main(["fetch", "yolox_nano", "--force"]) == 1
+    assert "is a file, not a folder" in capsys.readouterr().err
