@@ -79,21 +79,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     out.add_argument("--no-progress", action="store_true",
                      help="no progress bar (it is off anyway when stderr is not a terminal)")
 
-    det = p.add_argument_group("detector")
-    det.add_argument("--model", default=None, metavar="NAME|PATH",
-                     help="ONNX detector name or path, or 'none' (default: yolox_nano)")
-    det.add_argument("--conf", type=float, default=None, help="confidence threshold (default 0.3)")
-    det.add_argument("--iou", type=float, default=None, help="NMS IoU threshold (default 0.45)")
-    det.add_argument("--classes", default=None, metavar="LIST",
-                     help="comma-separated class names to keep (e.g. car,person)")
-
-    fus = p.add_argument_group("fusion")
-    add_options(fus, FusionParams, show_defaults=FusionParams())
-    fus.add_argument("--seed", type=int, default=None, help="RANSAC seed (default 0)")
-
-    mat = p.add_argument_group("matcher (the same options as the disparity command; default: SGMParams')")
-    add_options(mat, SGMParams, dest_prefix="matcher_", help_overrides={
-        "num_disparities": "disparities searched (default: the scene's range, else 128)"})
+    add_pipeline_options(p)
 
     run = p.add_argument_group("run")
     run.add_argument("--threads", type=int, default=None, metavar="N",
@@ -113,6 +99,25 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     run.add_argument("--dump-config", action="store_true", help="print the merged options as TOML and exit")
     p.set_defaults(func=func)
     return p
+
+
+def add_pipeline_options(p: Any) -> None:
+    """Register the detector, fusion and matcher option groups (shared by ``run`` and ``guide``)."""
+    det = p.add_argument_group("detector")
+    det.add_argument("--model", default=None, metavar="NAME|PATH",
+                     help="ONNX detector name or path, or 'none' (default: yolox_nano)")
+    det.add_argument("--conf", type=float, default=None, help="confidence threshold (default 0.3)")
+    det.add_argument("--iou", type=float, default=None, help="NMS IoU threshold (default 0.45)")
+    det.add_argument("--classes", default=None, metavar="LIST",
+                     help="comma-separated class names to keep (e.g. car,person)")
+
+    fus = p.add_argument_group("fusion")
+    add_options(fus, FusionParams, show_defaults=FusionParams())
+    fus.add_argument("--seed", type=int, default=None, help="RANSAC seed (default 0)")
+
+    mat = p.add_argument_group("matcher (the same options as the disparity command; default: SGMParams')")
+    add_options(mat, SGMParams, dest_prefix="matcher_", help_overrides={
+        "num_disparities": "disparities searched (default: the scene's range, else 128)"})
 
 
 # --------------------------------------------------------------------------------------------------
@@ -318,8 +323,8 @@ def _report(summary: RunSummary, source: Source, outdir: Path, quiet: bool, wall
     text = f"{summary.frames} frame(s), {summary.objects} object(s), outputs in {outdir}"
     if summary.skipped:
         text += f"; {summary.skipped} finished frame(s) skipped (--resume)"
-    for line in summary.skipped_scenes:
-        log.warning("not measured: %s", line)
+    if summary.skipped_scenes:
+        text += f"; {len(summary.skipped_scenes)} scene(s) not measured (no calibration, named above)"
     if summary.failed:
         text += f"; {len(summary.failed)} frame(s) FAILED and skipped (--on-error skip): " + ", ".join(
             name for name, _ in summary.failed[:10]) + (", ..." if len(summary.failed) > 10 else "")
