@@ -242,3 +242,15 @@ def test_fetch_checks_the_cache_before_downloading(tmp_path, capsys, monkeypatch
     monkeypatch.setattr(models, "download_model", _no_network)
     assert main(["fetch", "yolox_nano", "--force"]) == 1
     assert "is a file, not a folder" in capsys.readouterr().err
+
+
+def test_the_wheel_declares_the_packaged_model_and_its_licence():
+    import fnmatch
+    import tomllib
+
+    from tests.conftest import REPO
+
+    patterns = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]["detectors"]
+    for file_name in models.PACKAGED_MODELS["yolox_nano"]:
+        assert any(fnmatch.fnmatch(f"data/{file_name}", pat) for pat in patterns), file_name
+        assert (REPO / "detectors" / "data" / file_name).is_file()
