@@ -570,3 +570,21 @@ def test_objects_json_is_byte_identical_across_runs_and_thread_counts_with_objec
         car = r["objects"][0]
         assert car["label"] == "car" and car["status"] == "ok"
         assert car["distance_m"] == pytest.approx(z_box, rel=0.05)
+
+
+def test_no_default_detector_hint_names_the_fetch_command(tmp_path, monkeypatch, capsys):
+    from detectors import models
+
+    monkeypatch.delenv("STEREO_CLASSIC_MODELS", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.setattr(models, "packaged_model", lambda name="yolox_nano": None)  # an install without it
+
+    def offline(name, **kwargs):
+        raise OSError("network unreachable")
+
+    monkeypatch.setattr(models, "download_model", offline)
+    assert main(["run", "-o", str(tmp_path / "o"), "--scale", "0.25", "--save", "json"]) == 0
+    captured = capsys.readouterr()
+    hint = [line for line in captured.err.splitlines() if "no detector" in line]
+    assert len(hint) == 1 and "python -m detectors fetch yolox_nano" in hint[0]
+    assert captured.out.strip() == "depth only (no detector)"
