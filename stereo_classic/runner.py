@@ -3,9 +3,12 @@
 :func:`run_source` takes frames from a :mod:`stereo_classic.sources` source, keeps one
 :class:`~stereo_classic.pipeline.Localizer` per rig (a dataset brings a rig per scene; the previous
 Localizer's buffers are freed on a change), optionally scales the images, and hands every result to a
-:class:`~stereo_classic.outputs.FrameWriter`. Ctrl-C finishes nothing half: the frame in progress leaves no
-file, finished frames are complete (a writer with ``resume=True`` skips them next time), and the
-:class:`RunSummary` says it was interrupted.
+:class:`~stereo_classic.outputs.FrameWriter`. Frames are read one at a time, when processed (sources yield
+:class:`~stereo_classic.sources.FrameRef` descriptions); with an ``executor`` (:mod:`stereo_classic.cluster`)
+they are processed on a Dask cluster and still written here, in order. Ctrl-C and SIGTERM finish nothing half:
+the frame in progress leaves no file, finished frames are complete (a writer with ``resume=True`` skips them
+next time), and the :class:`RunSummary` says it was interrupted (and by which signal). ``on_error="skip"``
+records a frame that fails and goes on.
 
 Examples
 --------
