@@ -1,0 +1,311 @@
+"""The guide: fed frame by frame with the pipeline's result and a time, it says what is ahead.
+
+:class:`Guide` chains the steps of this package for one frame: sample the disparity into points
+(:mod:`~stereo_classic.guide.ground`), keep the ground plane, find obstacles in the corridor
+(:mod:`~stereo_classic.guide.obstacles`) and drop-offs (:mod:`~stereo_classic.guide.dropoff`), measure the
+detected objects, track both (:mod:`~stereo_classic.guide.tracking`), find the free distance per direction and
+the clear path, and let :class:`~stereo_classic.guide.messages.MessagePolicy` choose the events. The result is a
+:class:`GuideFrame`; nothing is written or spoken here (the ``guide`` command and
+:mod:`~stereo_classic.guide.speech` do that).
+
+Without a ground plane (none fitted yet and no ``camera_height`` / ``camera_pitch`` given) there are no
+obstacles, drop-offs or clear path in that frame, only detected objects (measured in the camera frame), and
+``GuideFrame.notes`` says so: no distance is invented.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from calib import RectifiedRig
+from stereo_classic.guide.dropoff import DropOff, find_dropoff
+from stereo_classic.guide.ground import GroundPlane, GroundTracker, sample_points
+from stereo_classic.guide.messages import Candidate, Event, MessagePolicy
+from stereo_classic.guide.obstacles import (
+    Obstacle,
+    OccupancyGrid,
+    clock_of,
+    find_obstacles,
+    free_distances,
+)
+from stereo_classic.guide.params import GuideInputError, GuideParams
+from stereo_classic.guide.tracking import Measurement, Track, Tracker
+
+__all__ = ["Guide", "GuideFrame", "TrackView"]
+
+
+@dataclass(frozen=True)
+class TrackView:
+    """A track as it was in one frame (see :class:`~stereo_classic.guide.tracking.Track`)."""
+
+    track_id: int
+    kind: str
+    label: str
+    distance_m: float
+    nearest_m: float
+    bearing_deg: float
+    approach_mps: float | None
+    ttc_s: float | None
+    lateral_m: float
+    forward_m: float
+    in_corridor: bool
+    box: tuple[float, float, float, float] | None
+
+    @property
+    def clock(self) -> int:
+        return clock_of(self.bearing_deg)
+
+
+@dataclass(frozen=True, eq=False)
+class GuideFrame:
+    """What the guide found in one frame.
+
+    Attributes
+    ----------
+    frame : str ; time_s : float, seconds
+    ground : GroundPlane or None
+    obstacles : list of Obstacle, in the corridor, nearest first (those a detected object explains left out)
+    grid : OccupancyGrid or None
+    dropoff : DropOff or None, straight ahead (the corridor)
+    hours : (K,) int, clock hours inside the field of view ; free_m : (K,) float, metres free along each
+    clear_clock : int or None, the hour with the longest free distance (ties: the one nearest to 12)
+    sectors_deg : (S,) float, haptic sector centres ; haptics : (S,) float in [0, 1], 1 = blocked at the feet
+    tracks : list of TrackView seen in this frame ; events : list of Event ; notes : tuple of str
+    obstacle_uv : (M, 2) float64, left-image pixels (column, row) of the obstacle points (for pictures)
+    """
+
+    frame: str
+    time_s: float
+    ground: GroundPlane | None
+    obstacles: list[Obstacle]
+    grid: OccupancyGrid | None
+    dropoff: DropOff | None
+    hours: np.ndarray
+    free_m: np.ndarray
+    clear_clock: int | None
+    sectors_deg: np.ndarray
+    haptics: np.ndarray
+    tracks: list[TrackView]
+    events: list[Event]
+    notes: tuple[str, ...] = ()
+    obstacle_uv: np.ndarray | None = None
+
+    def haptics_record(self) -> dict[str, Any]:
+        """The frame's line of ``events.jsonl`` with the haptic vector, the free distances and the ground."""
+        return {"frame": self.frame, "time_s": round(self.time_s, 3), "kind": "haptics",
+                "sectors_deg": [round(float(b), 1) for b in self.sectors_deg],
+                "intensity": [round(float(v), 3) for v in self.haptics],
+                "hours": [int(h) for h in self.hours], "free_m": [round(float(v), 2) if math.isfinite(v) else None for v in self.free_m],
+                "clear_clock": self.clear_clock,
+                "ground": self.ground.to_dict() if self.ground is not None else None, "notes": list(self.notes)}
+
+
+class Guide:
+    """Feed it frames in time order; see the module docstring.
+
+    Parameters
+    ----------
+    params : GuideParams, optional
+    **overrides : GuideParams fields
+
+    Usage::
+
+        with Localizer(rig, "yolox_nano") as loc:
+            guide = Guide(corridor_width=0.8)
+            for i, (left, right) in enumerate(pairs):
+                frame = guide.update(loc(left, right), rig, time_s=i / 10, frame=str(i))
+                for event in frame.events:
+                    print(event.text)                       # "person, 12 o'clock, 2.4 metres, approaching"
+    """
+
+    def __init__(self, params: GuideParams | None = None, **overrides: Any) -> None:
+        if params is not None and not isinstance(params, GuideParams):
+            raise GuideInputError(f"`params` must be a GuideParams or None, got {type(params).__name__}")
+        self.params = (params or GuideParams()).replace(**overrides)
+        self.ground = GroundTracker(self.params)
+        self.tracker = Tracker(self.params)
+        self.policy = MessagePolicy(self.params)
+        self.last_time: float | None = None
+        self.frames = 0
+        self._rig_key: tuple | None = None
+
+    def reset(self) -> None:
+        """Forget the ground, the tracks and what was said (a new scene)."""
+        self.ground.reset()
+        self.tracker.reset()
+        self.policy.reset()
+        self.last_time = None
+        self.frames = 0
+
+    def update(self, result: Any, rig: RectifiedRig, time_s: float, *, frame: str | None = None) -> GuideFrame:
+        """Process one frame.
+
+        Parameters
+        ----------
+        result : stereo_classic.PipelineResult (``disparity`` and ``objects`` are used)
+        rig : calib.RectifiedRig, the rig of the images the matcher saw
+        time_s : float, seconds, increasing from frame to frame
+        frame : str, the frame's name in events (default: its number)
+
+        Raises
+        ------
+        GuideInputError (ValueError)
+            A time that is not finite or not after the previous one, a rig that is not a RectifiedRig, or a
+            disparity map of another size than the rig's images.
+        """
+        if isinstance(time_s, bool) or not isinstance(time_s, (int, float, np.floating, np.integer)) \
+                or not math.isfinite(float(time_s)):
+            raise GuideInputError(f"`time_s` must be a finite number of seconds, got {time_s!r}")
+        time_s = float(time_s)
+        if not isinstance(rig, RectifiedRig):
+            raise GuideInputError(f"`rig` must be a calib.RectifiedRig, got {type(rig).__name__}")
+        disparity = getattr(getattr(result, "disparity", None), "disparity", None)
+        if not isinstance(disparity, np.ndarray) or disparity.ndim != 2:
+            raise GuideInputError(f"`result` must be a PipelineResult with a disparity map, got {type(result).__name__}")
+        size = (disparity.shape[1], disparity.shape[0])
+        if size != tuple(int(v) for v in rig.image_size):
+            raise GuideInputError(f"`rig` is for {rig.image_size[0]}x{rig.image_size[1]} images but the disparity "
+                                  f"map is {size[0]}x{size[1]}")
+        notes: list[str] = []
+        key = (size, float(rig.focal_px), float(rig.baseline_m))
+        if self._rig_key is not None and key != self._rig_key:
+            self.reset()
+            notes.append("new camera geometry: ground and tracks started afresh")
+        self._rig_key = key
+        if self.last_time is not None:
+            if time_s <= self.last_time:
+                raise GuideInputError(f"`time_s` must increase from frame to frame, got {time_s} after "
+                                      f"{self.last_time}")
+            if time_s - self.last_time > self.params.max_gap:
+                self.tracker.reset()
+                self.policy.reset()
+                notes.append(f"{time_s - self.last_time:.1f} s since the last frame: tracks started afresh")
+        self.last_time = time_s
+        self.frames += 1
+        name = frame if frame is not None else str(self.frames - 1)
+        return self._process(result, rig, disparity, time_s, name, notes)
+
+    # ----------------------------------------------------------------------------------------------
+    def _process(self, result: Any, rig: RectifiedRig, disparity: np.ndarray, time_s: float, name: str,
+                 notes: list[str]) -> GuideFrame:
+        p = self.params
+        h, w = disparity.shape
+        stride = max(2, round(math.sqrt(h * w / 12000.0)))
+        fb = float(rig.focal_px * rig.baseline_m)
+        points = sample_points(disparity, rig, stride=stride, max_depth=max(2.5 * p.look_ahead, 10.0))
+        plane = self.ground.update(points, fb)
+        left_b = math.degrees(math.atan2(-rig.cx_left, rig.focal_px))
+        right_b = math.degrees(math.atan2(w - 1 - rig.cx_left, rig.focal_px))
+        hours_b = np.array([b for b in (-60.0, -30.0, 0.0, 30.0, 60.0) if left_b - 5 <= b <= right_b + 5])
+        edges = np.linspace(left_b, right_b, p.sectors + 1)
+        sectors = (edges[:-1] + edges[1:]) / 2
+        obstacles: list[Obstacle] = []
+        grid = dropoff = None
+        blocked = np.zeros((0, 2))
+        if plane is None:
+            notes.append("ground unknown: no obstacles, drop-offs or clear path in this frame")
+        else:
+            gp = plane.to_ground(points.xyz)
+            area = points.footprint()
+            obstacles, grid = find_obstacles(gp, area, p)
+            blocked = grid.cells()
+            low = gp[:, 2] < p.step_height / 2                  # the only points a drop-off search looks at
+            gl, al = gp[low], area[low]
+            drops = [find_dropoff(gl, al, p, camera_height=plane.height_m, bearing_deg=float(b)) for b in hours_b]
+            dropoff = next((d for d, b in zip(drops, hours_b) if d is not None and b == 0.0), None)
+            edge_pts = [self._edge_points(d) for d in drops if d is not None]
+            if edge_pts:
+                blocked = np.vstack([blocked] + edge_pts)
+        measurements = self._measure_objects(result, rig, disparity, plane)
+        for m in measurements:
+            blocked = np.vstack([blocked, [[m.lateral_m * m.nearest_m / max(m.distance_m, 1e-6),
+                                            m.forward_m * m.nearest_m / max(m.distance_m, 1e-6)]]])
+        obstacles = [o for o in obstacles if not any(self._explains(m, o) for m in measurements)]
+        measurements += [Measurement("obstacle", "obstacle", o.lateral_m, o.forward_m, o.nearest_m, o.width_m)
+                         for o in obstacles]
+        tracks = self.tracker.update(measurements, time_s)
+        first = self.frames == 1
+        shown = [t for t in tracks if t.hits >= 2 or first]
+        views = [self._view(t) for t in shown]
+        free = free_distances(blocked, hours_b, p.corridor_width, p.look_ahead) if plane is not None \
+            else np.full(len(hours_b), np.nan)
+        sector_free = free_distances(blocked, sectors, p.corridor_width, p.look_ahead) if plane is not None \
+            else np.full(len(sectors), np.nan)
+        haptics = np.nan_to_num(np.clip(1.0 - sector_free / p.look_ahead, 0.0, 1.0), nan=0.0)
+        hours = np.array([clock_of(b) for b in hours_b], dtype=np.int64)
+        clear = None
+        if plane is not None and len(hours_b):
+            order = sorted(range(len(hours_b)), key=lambda i: (-round(float(free[i]), 1), abs(hours_b[i])))
+            clear = int(hours[order[0]])
+        candidates = [Candidate(v.kind, v.label, v.track_id, v.distance_m, v.nearest_m, v.bearing_deg,
+                                v.approach_mps, v.ttc_s, v.in_corridor) for v in views]
+        if dropoff is not None:
+            candidates.append(Candidate("drop_off", "drop-off", None, dropoff.distance_m, dropoff.distance_m,
+                                        dropoff.bearing_deg, None, None, True))
+        if clear is not None and 0.0 in hours_b:
+            ahead = float(free[list(hours_b).index(0.0)])
+            best = float(free[list(hours).index(clear)])
+            if clear != 12 and ahead < p.warning_distance and best > ahead + 1.0:
+                candidates.append(Candidate("clear_path", "clear path", None, best, best,
+                                            float(hours_b[list(hours).index(clear)]), None, None, False))
+        alive = {(t.kind, t.track_id) for t in self.tracker.tracks}
+        events = self.policy.select(candidates, frame=name, time_s=time_s, alive=alive)
+        return GuideFrame(frame=name, time_s=time_s, ground=plane, obstacles=obstacles, grid=grid, dropoff=dropoff,
+                          hours=hours, free_m=free, clear_clock=clear, sectors_deg=sectors, haptics=haptics,
+                          tracks=views, events=events, notes=tuple(notes),
+                          obstacle_uv=points.uv[grid.mask] if grid is not None else np.zeros((0, 2)))
+
+    def _edge_points(self, d: DropOff) -> np.ndarray:
+        """Points along a drop-off's edge, across the corridor (they block the free distance)."""
+        b = math.radians(d.bearing_deg)
+        offs = np.linspace(-self.params.corridor_width / 2, self.params.corridor_width / 2, 5)
+        return np.column_stack([d.lateral_m + offs * math.cos(b), d.forward_m - offs * math.sin(b)])
+
+    @staticmethod
+    def _explains(m: Measurement, o: Obstacle) -> bool:
+        return (abs(m.lateral_m - o.lateral_m) < o.width_m / 2 + 0.3 + m.size_m / 2
+                and abs(m.forward_m - o.forward_m) < o.depth_m / 2 + 0.5)
+
+    def _measure_objects(self, result: Any, rig: RectifiedRig, disparity: np.ndarray,
+                         plane: GroundPlane | None) -> list[Measurement]:
+        objects = getattr(result, "objects", None)
+        if objects is None or len(objects) == 0:
+            return []
+        out: list[Measurement] = []
+        fb = float(rig.focal_px * rig.baseline_m)
+        h, w = disparity.shape
+        for i in range(len(objects)):
+            if objects.status[i] != "ok":
+                continue
+            xyz = np.asarray(objects.xyz[i], np.float64)
+            if not np.isfinite(xyz).all():
+                continue
+            x0, y0, x1, y1 = (float(v) for v in objects.xyxy[i])
+            zc = float(xyz[2])
+            mx, my = 0.1 * (x1 - x0), 0.1 * (y1 - y0)
+            c0, c1 = int(np.clip(x0 + mx, 0, w - 1)), int(np.clip(x1 - mx, 1, w))
+            r0, r1 = int(np.clip(y0 + my, 0, h - 1)), int(np.clip(y1 - my, 1, h))
+            d = disparity[r0:r1:2, c0:c1:2]
+            d = d[np.isfinite(d) & (d + rig.doffs > 0)]
+            z = fb / (d + rig.doffs)
+            z = z[np.abs(z - zc) < max(0.3, 0.15 * zc)]
+            ratio = float(np.percentile(z, 5)) / zc if z.size >= 10 else 1.0
+            if plane is not None:
+                lat, fwd, _ = plane.to_ground(xyz[None, :])[0]
+            else:
+                lat, fwd = float(xyz[0]), float(xyz[2])
+            dist = math.hypot(lat, fwd)
+            size = (x1 - x0) * zc / rig.focal_px
+            out.append(Measurement("object", str(objects.labels[i]), float(lat), float(fwd), dist * min(ratio, 1.0),
+                                   size, (x0, y0, x1, y1)))
+        return out
+
+    def _view(self, t: Track) -> TrackView:
+        m = t.last
+        half = self.params.corridor_width / 2 + m.size_m / 2
+        return TrackView(t.track_id, t.kind, t.label, t.distance_m, t.nearest_m, t.bearing_deg, t.approach_mps,
+                         t.ttc_s, m.lateral_m, m.forward_m, abs(m.lateral_m) < half, m.box)

@@ -1,0 +1,113 @@
+"""Drop-offs: where the ground ahead falls away by more than a step (stairs down, a kerb, a platform edge).
+
+Along a strip (the walking corridor, or the corridor turned to another bearing) the points at ground level
+(within half a step of the plane) and the points clearly below it (lower than ``step_height``) are counted in
+10 cm bins of forward distance. A drop-off is where the points below the ground begin while the ground before it
+was seen: its edge is the far end of the ground seen before the lower surface. A lower surface at ``drop`` metres
+below a camera ``h`` metres up is hidden behind the edge up to ``edge * (h + drop) / h``; when no ground is seen
+before it (the edge right at the feet, or outside the view), that relation gives the edge instead. Ground that
+just ends without a lower surface in view is not reported: stereo also loses texture-less floors, and a
+warning there would be an invented distance.
+
+>>> import numpy as np
+>>> from stereo_classic.guide import GuideParams
+>>> f = np.linspace(1.0, 6.0, 200)
+>>> h = np.where(f < 3.0, 0.0, -0.4)                                        # 40 cm down at 3 m
+>>> pts = np.column_stack([np.zeros_like(f), f, h])
+>>> drop = find_dropoff(pts, np.full(len(f), 0.01), GuideParams(), camera_height=1.2)
+>>> round(drop.distance_m, 1), round(drop.drop_m, 2)
+(3.0, 0.4)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from stereo_classic.guide.obstacles import clock_of
+from stereo_classic.guide.params import GuideParams
+
+__all__ = ["BIN_M", "MIN_DROP_AREA", "DropOff", "find_dropoff"]
+
+#: Length of a forward bin, metres.
+BIN_M = 0.1
+_MIN_AREA = 0.003
+#: Surface (square metres, as seen from the camera) of a lower surface over half a metre: a few stray depths
+#: below the ground are not a drop-off.
+MIN_DROP_AREA = 0.03
+
+
+@dataclass(frozen=True)
+class DropOff:
+    """A drop-off ahead.
+
+    Attributes
+    ----------
+    distance_m : float, metres along the strip to the edge
+    bearing_deg : float, degrees, bearing of the strip (0 ahead, positive right)
+    lateral_m, forward_m : float, metres, the edge's centre in the ground frame
+    drop_m : float, metres, how far the lower surface lies below the ground (median)
+    """
+
+    distance_m: float
+    bearing_deg: float
+    lateral_m: float
+    forward_m: float
+    drop_m: float
+
+    @property
+    def clock(self) -> int:
+        return clock_of(self.bearing_deg)
+
+
+def find_dropoff(ground_points: np.ndarray, area: np.ndarray, params: GuideParams, *, camera_height: float,
+                 bearing_deg: float = 0.0) -> DropOff | None:
+    """The nearest drop-off along the strip at ``bearing_deg``, within ``params.look_ahead``, or None.
+
+    Parameters
+    ----------
+    ground_points : (N, 3) float64, lateral, forward, height above the ground (metres)
+    area : (N,) float64, square metres each point stands for
+    params : GuideParams
+        ``corridor_width`` (strip width), ``step_height``, ``look_ahead``.
+    camera_height : float, metres (for the hidden part behind an edge)
+    """
+    b = math.radians(bearing_deg)
+    lat, fwd, hgt = ground_points[:, 0], ground_points[:, 1], ground_points[:, 2]
+    along = lat * math.sin(b) + fwd * math.cos(b)
+    across = lat * math.cos(b) - fwd * math.sin(b)
+    step = params.step_height
+    reach = params.look_ahead * (camera_height + 2.0) / camera_height     # lower floors are seen further away
+    strip = (np.abs(across) < params.corridor_width / 2) & (along > 0) & (along < reach)
+    below = strip & (hgt < -step) & (hgt > -5.0)
+    if area[below].sum() < MIN_DROP_AREA:
+        return None
+    level = strip & (np.abs(hgt) < step / 2)
+    nbins = math.ceil(reach / BIN_M)
+    below_area = np.bincount((along[below] / BIN_M).astype(np.int64), weights=area[below], minlength=nbins)[:nbins]
+    level_area = np.bincount((along[level] / BIN_M).astype(np.int64), weights=area[level], minlength=nbins)[:nbins]
+    # The lower surface starts at the first bin from which points below outweigh ground for half a metre.
+    win = max(1, round(0.5 / BIN_M))
+    kernel = np.ones(win)
+    below_run = np.convolve(below_area, kernel)[win - 1:win - 1 + nbins]
+    level_run = np.convolve(level_area, kernel)[win - 1:win - 1 + nbins]
+    start = np.nonzero((below_area >= _MIN_AREA / 3) & (below_run >= MIN_DROP_AREA) & (below_run > 2 * level_run))[0]
+    if start.size == 0:
+        return None
+    first = int(start[0])
+    lower_near = along[below] >= first * BIN_M
+    drop = float(-np.median(hgt[below][lower_near]))
+    seen = level & (along < (first + 1) * BIN_M)
+    if area[seen].sum() >= _MIN_AREA:
+        edge = float(np.percentile(along[seen], 99))
+    else:
+        edge = float(np.percentile(along[below][lower_near], 1)) * camera_height / (camera_height + drop)
+    if edge > params.look_ahead:
+        return None
+    pick = below & (np.abs(along - along[below][lower_near].min()) < 0.5)
+    offset = float(np.median(across[pick])) if pick.any() else 0.0
+    lat_c = edge * math.sin(b) + offset * math.cos(b)
+    fwd_c = edge * math.cos(b) - offset * math.sin(b)
+    return DropOff(distance_m=edge, bearing_deg=float(bearing_deg), lateral_m=lat_c, forward_m=fwd_c, drop_m=drop)

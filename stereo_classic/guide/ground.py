@@ -1,0 +1,296 @@
+"""The ground under the walker: a plane fitted robustly to the point cloud, kept stable over frames.
+
+Coordinates: the left rectified camera frame (X right, Y down, Z forward, metres). The ground is the plane
+``up . p + height = 0`` where ``up`` is the unit vector pointing up (away from the ground) and ``height`` the
+camera's height above it; ``up . p + height`` is then any point's height above the ground. A camera that
+looks down by ``pitch`` degrees (no roll) has ``up = (0, -cos(pitch), -sin(pitch))``.
+
+:func:`sample_points` back-projects a grid of pixels (every ``stride``-th), :func:`fit_ground` finds the
+plane with RANSAC (3-point hypotheses near the expected orientation, a depth-dependent inlier band, then a
+least-squares refit), and :class:`GroundTracker` keeps one estimate over frames: small changes are smoothed,
+a lasting change (the camera was re-mounted) is adopted after a few frames, a frame without a fit keeps the
+last plane, and a given ``--camera-height`` / ``--camera-pitch`` replaces the estimate.
+
+>>> import numpy as np
+>>> plane = GroundPlane.from_mounting(1.2, 10.0)
+>>> round(plane.pitch_deg, 3), plane.height_m
+(10.0, 1.2)
+>>> level = GroundPlane.from_mounting(1.2, 0.0)
+>>> float(level.heights(np.array([[0.0, 1.2, 3.0]]))[0])  # 1.2 m below the optical axis: on the ground
+0.0
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from calib import RectifiedRig
+from calib.geometry import points_from_pixels
+from stereo_classic.guide.params import HEIGHT_RANGE, GuideParams
+
+__all__ = ["GroundPlane", "GroundTracker", "PointSample", "fit_ground", "sample_points"]
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product over the last axis (np.cross is slow for small arrays)."""
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1], a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
+
+
+@dataclass(frozen=True, eq=False)
+class PointSample:
+    """Back-projected pixels of one frame (only those with a known depth).
+
+    Attributes
+    ----------
+    uv : (N, 2) float64, pixels (column, row) in the left rectified image
+    xyz : (N, 3) float64, metres, camera frame
+    stride : int, pixels between samples
+    focal_px : float
+    """
+
+    uv: np.ndarray
+    xyz: np.ndarray
+    stride: int
+    focal_px: float
+
+    def footprint(self) -> np.ndarray:
+        """(N,) float64, square metres of surface each sample stands for (facing the camera)."""
+        size = self.xyz[:, 2] * self.stride / self.focal_px
+        return size * size
+
+
+def sample_points(disparity: np.ndarray, rig: RectifiedRig, *, stride: int = 4, max_depth: float = 30.0
+                  ) -> PointSample:
+    """Every ``stride``-th pixel of ``disparity`` ((H, W) float32, px, NaN unknown) back-projected with ``rig``;
+    depths beyond ``max_depth`` metres or not positive are dropped."""
+    h, w = disparity.shape
+    if (w, h) != tuple(int(v) for v in rig.image_size):
+        raise ValueError(f"`disparity` is {w}x{h} but the rig's images are {rig.image_size[0]}x{rig.image_size[1]}")
+    off = stride // 2
+    vs, us = np.mgrid[off:h:stride, off:w:stride]
+    d = disparity[off::stride, off::stride]
+    keep = np.isfinite(d)
+    u, v, d = us[keep].astype(np.float64), vs[keep].astype(np.float64), d[keep]
+    xyz = points_from_pixels(u, v, d, rig)
+    ok = np.isfinite(xyz[:, 2]) & (xyz[:, 2] > 0) & (xyz[:, 2] <= max_depth)
+    return PointSample(uv=np.column_stack([u[ok], v[ok]]), xyz=xyz[ok], stride=stride, focal_px=float(rig.focal_px))
+
+
+@dataclass(frozen=True, eq=False)
+class GroundPlane:
+    """A ground plane in the camera frame.
+
+    Attributes
+    ----------
+    up : (3,) float64, unit vector pointing up, camera frame
+    height_m : float, camera height above the plane, metres
+    source : str
+        "given" (from ``camera_height`` and ``camera_pitch``), "fitted" or "kept" (last frame's plane).
+    inliers : int, points that supported the fit (0 when given or kept)
+    """
+
+    up: np.ndarray
+    height_m: float
+    source: str = "fitted"
+    inliers: int = 0
+
+    def __post_init__(self) -> None:
+        up = np.asarray(self.up, np.float64).reshape(3)
+        norm = float(np.linalg.norm(up))
+        if not (math.isfinite(norm) and norm > 0 and math.isfinite(self.height_m)):
+            raise ValueError(f"GroundPlane: `up` must be a finite non-zero vector and `height_m` finite, got "
+                             f"{self.up!r}, {self.height_m!r}")
+        object.__setattr__(self, "up", up / norm)
+
+    @classmethod
+    def from_mounting(cls, height_m: float, pitch_deg: float, source: str = "given") -> GroundPlane:
+        """The plane under a camera ``height_m`` metres up, looking down by ``pitch_deg`` degrees, no roll."""
+        t = math.radians(pitch_deg)
+        return cls(np.array([0.0, -math.cos(t), -math.sin(t)]), float(height_m), source)
+
+    @property
+    def pitch_deg(self) -> float:
+        """Downward tilt of the optical axis, degrees."""
+        return math.degrees(math.asin(float(np.clip(-self.up[2], -1.0, 1.0))))
+
+    @property
+    def roll_deg(self) -> float:
+        """Sideways tilt, degrees (positive: the right side of the image is lower)."""
+        return math.degrees(math.atan2(float(self.up[0]), float(-self.up[1])))
+
+    def heights(self, xyz: np.ndarray) -> np.ndarray:
+        """(N,) height of each point above the ground, metres."""
+        return xyz @ self.up + self.height_m
+
+    def axes(self) -> tuple[np.ndarray, np.ndarray]:
+        """(right, forward): horizontal unit vectors in the camera frame (right follows the image's X)."""
+        ex = np.array([1.0, 0.0, 0.0])
+        right = ex - (ex @ self.up) * self.up
+        right /= np.linalg.norm(right)
+        return right, _cross(self.up, right)
+
+    def to_ground(self, xyz: np.ndarray) -> np.ndarray:
+        """(N, 3): lateral (m, right positive), forward (m), height above the ground (m) of each point."""
+        right, forward = self.axes()
+        return np.column_stack([xyz @ right, xyz @ forward, self.heights(xyz)])
+
+    def to_camera(self, lateral: np.ndarray, forward: np.ndarray, height: np.ndarray | float = 0.0) -> np.ndarray:
+        """(N, 3) camera-frame points of ground coordinates (the inverse of :meth:`to_ground`)."""
+        right, fwd = self.axes()
+        lateral, forward = np.asarray(lateral, np.float64), np.asarray(forward, np.float64)
+        h = np.broadcast_to(np.asarray(height, np.float64), lateral.shape)
+        return (lateral[:, None] * right + forward[:, None] * fwd + (h - self.height_m)[:, None] * self.up)
+
+    def to_dict(self) -> dict[str, float | str]:
+        return {"height_m": round(self.height_m, 3), "pitch_deg": round(self.pitch_deg, 2),
+                "roll_deg": round(self.roll_deg, 2), "source": self.source}
+
+
+def _band(z: np.ndarray, focal_baseline: float) -> np.ndarray:
+    """Inlier half-width in metres: 3 cm plus the depth error of a quarter pixel of disparity, at most 10 cm."""
+    return np.minimum(0.03 + 0.25 * z * z / focal_baseline, 0.10)
+
+
+def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane | None = None,
+               max_tilt_deg: float = 35.0, max_roll_deg: float = 15.0, iterations: int = 64, rng: int = 0
+               ) -> GroundPlane | None:
+    """The ground plane of one frame, or None when the points show none.
+
+    Parameters
+    ----------
+    points : PointSample
+    focal_baseline : float, px * m (``f B`` of the rig: the depth error grows as ``Z**2 / (f B)``)
+    prior : GroundPlane, optional
+        The expected plane: hypotheses must be within ``max_tilt_deg / 2`` of its ``up`` and only points
+        within 0.5 m of it are used. Without one, ``up`` must be within ``max_tilt_deg`` of straight up
+        ((0, -1, 0)) and only the points below the camera in the lower half of the image are used. The roll
+        must stay below ``max_roll_deg``. A plane scores its supporting points minus the points below it: a
+        table top or a bed, with the floor under it, is not the floor.
+    iterations : int, RANSAC hypotheses; ``rng`` seeds them (deterministic).
+
+    Returns
+    -------
+    GroundPlane or None
+        None when fewer than 30 points (or 10 % of the candidates) support the best plane, or the camera
+        height it gives is outside :data:`~stereo_classic.guide.params.HEIGHT_RANGE`.
+    """
+    xyz = points.xyz
+    if prior is not None:
+        cand = xyz[(np.abs(prior.heights(xyz)) < 0.3) & (xyz[:, 2] < 4.0)]
+        ref, limit = prior.up, math.radians(max_tilt_deg / 2)
+    else:
+        cy = np.median(points.uv[:, 1]) if len(points.uv) else 0.0
+        cand = xyz[(points.uv[:, 1] > cy) & (xyz[:, 1] > 0.05) & (xyz[:, 2] < 4.0)]
+        ref, limit = np.array([0.0, -1.0, 0.0]), math.radians(max_tilt_deg)
+    if len(cand) < 30:
+        return None
+    gen = np.random.default_rng(rng)
+    band = _band(cand[:, 2], focal_baseline)
+    step = max(1, len(cand) // 1500)                                       # hypotheses are scored on <= 1500
+    score_pts, score_band = cand[::step], band[::step]
+    triples = gen.integers(0, len(cand), size=(iterations, 3))
+    a, b, c = cand[triples[:, 0]], cand[triples[:, 1]], cand[triples[:, 2]]
+    normals = _cross(b - a, c - a)
+    norms = np.linalg.norm(normals, axis=1)
+    good = norms > 1e-9
+    normals[good] /= norms[good, None]
+    normals *= np.where(normals @ ref < 0, -1.0, 1.0)[:, None]          # orient towards the reference up
+    good &= (normals @ ref > math.cos(limit)) & (np.abs(normals[:, 0]) < math.sin(math.radians(max_roll_deg)))
+    if not good.any():
+        return None
+    normals, a = normals[good], a[good]
+    offsets = -np.einsum("ij,ij->i", normals, a)                          # up . p + h = 0 on the plane
+    signed = score_pts @ normals.T + offsets[None, :]                     # (M, K) height above each plane
+    support = (np.abs(signed) < score_band[:, None]).sum(axis=0)
+    # Nothing lies under the ground (but a drop-off): points below a plane count against it, so a table top
+    # or a bed, with the floor under it, loses to the floor.
+    # Only those nearer than the plane's own points: beyond a floor's far edge a drop-off may lie below it.
+    inlier = np.abs(signed) < score_band[:, None]
+    reach = (inlier * score_pts[:, 2:3]).sum(axis=0) / np.maximum(support, 1)
+    below = ((signed < -3 * score_band[:, None]) & (score_pts[:, 2:3] < reach[None, :])).sum(axis=0)
+    best = int(np.argmax(support - below))
+    inl = cand[np.abs(cand @ normals[best] + offsets[best]) < band]
+    if len(inl) < max(30, 0.1 * len(cand)):
+        return None
+    centre = inl.mean(axis=0)
+    _, _, vt = np.linalg.svd(inl - centre, full_matrices=False)
+    up = vt[2] if vt[2] @ ref > 0 else -vt[2]
+    if up @ ref < math.cos(limit):
+        up = normals[best]
+    height = float(-(up @ centre))
+    if not HEIGHT_RANGE[0] <= height <= HEIGHT_RANGE[1]:
+        return None
+    return GroundPlane(up, height, "fitted", len(inl))
+
+
+class GroundTracker:
+    """One ground estimate over frames (see the module docstring).
+
+    Parameters
+    ----------
+    params : GuideParams
+        ``camera_height`` / ``camera_pitch`` when given replace the estimate (both given: nothing is fitted).
+    smoothing : float in (0, 1], weight of a new agreeing fit
+    """
+
+    def __init__(self, params: GuideParams, *, smoothing: float = 0.3, switch_after: int = 3) -> None:
+        self.params = params
+        self.smoothing = smoothing
+        self.switch_after = switch_after
+        self.plane: GroundPlane | None = None
+        self._disagree = 0
+        self._frame = 0
+
+    def reset(self) -> None:
+        self.plane = None
+        self._disagree = 0
+
+    def _given(self, plane: GroundPlane | None) -> GroundPlane | None:
+        h, p = self.params.camera_height, self.params.camera_pitch
+        if h is not None and p is not None:
+            return GroundPlane.from_mounting(h, p)
+        if plane is None:
+            return None
+        up = GroundPlane.from_mounting(1.0, p).up if p is not None else plane.up
+        height = h if h is not None else plane.height_m
+        if not HEIGHT_RANGE[0] <= height <= HEIGHT_RANGE[1]:
+            return None
+        return GroundPlane(up, height, plane.source, plane.inliers)
+
+    def update(self, points: PointSample, focal_baseline: float) -> GroundPlane | None:
+        """The ground of this frame (None until a first plane is known)."""
+        self._frame += 1
+        if self.params.camera_height is not None and self.params.camera_pitch is not None:
+            self.plane = self._given(None)
+            return self.plane
+        prior = self.plane
+        fit = fit_ground(points, focal_baseline, prior=prior, rng=self._frame)
+        if fit is None and prior is not None and self.plane is not None:
+            fit = fit_ground(points, focal_baseline, prior=None, rng=self._frame)   # the camera moved a lot
+        fit = self._given(fit)
+        if fit is None:
+            if self.plane is not None:
+                self.plane = GroundPlane(self.plane.up, self.plane.height_m, "kept", 0)
+            return self.plane
+        old = self.plane
+        if old is None:
+            self.plane = fit
+            return fit
+        angle = math.degrees(math.acos(float(np.clip(old.up @ fit.up, -1, 1))))
+        if angle < 5.0 and abs(old.height_m - fit.height_m) < 0.15:
+            self._disagree = 0
+            a = self.smoothing
+            up = (1 - a) * old.up + a * fit.up
+            self.plane = GroundPlane(up, (1 - a) * old.height_m + a * fit.height_m, "fitted", fit.inliers)
+        else:
+            self._disagree += 1
+            if self._disagree >= self.switch_after:
+                self._disagree = 0
+                self.plane = fit
+            else:
+                self.plane = GroundPlane(old.up, old.height_m, "kept", 0)
+        return self.plane

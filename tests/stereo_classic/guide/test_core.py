@@ -1,0 +1,126 @@
+"""The guide on rendered stereo sequences of known geometry (tests/helpers/walk_scenes.py): accuracy targets of
+issue 13 (obstacle distance within 10 %, approach speed within 20 %, drop-off distance within 15 %, clock within
+one hour), pictures, and bad input."""
+
+from __future__ import annotations
+
+import json
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from stereo_classic.guide import Guide, GuideInputError, GuideParams
+from stereo_classic.guide.render import draw_birdseye, draw_overlay
+from stereo_classic.pipeline import Localizer
+from tests.helpers import walk_scenes as ws
+from tests.helpers.detectors import FixedBoxes
+from tests.helpers.scenes import make_rig
+
+PARAMS = {"num_disparities": 64}
+
+
+@pytest.fixture(scope="module")
+def approach_run():
+    """A box coming at 1 m/s from 3.0 m, 10 frames at 10 fps, through the pipeline and the guide."""
+    frames, rig = ws.approach(n=10, speed=1.0, start=3.0)
+    guide = Guide()
+    out = []
+    with Localizer(rig, None, PARAMS) as loc:
+        for left, right, front, t in frames:
+            result = loc(left, right)
+            out.append((guide.update(result, rig, t, frame=f"f{round(t * 10)}"), front, result))
+    return out, rig, guide
+
+
+def test_ground_is_the_mounting(approach_run):
+    out, _, _ = approach_run
+    for frame, _, _ in out:
+        assert frame.ground.height_m == pytest.approx(1.2, abs=0.05)
+        assert frame.ground.pitch_deg == pytest.approx(10.0, abs=1.5)
+
+
+def test_obstacle_distance_speed_and_clock(approach_run):
+    out, _, _ = approach_run
+    for frame, front, _ in out:
+        (ob,) = [t for t in frame.tracks if t.kind == "obstacle"]
+        assert ob.track_id == 1                                            # one track all along
+        assert ob.nearest_m == pytest.approx(front, rel=0.10)
+        assert ob.clock in (11, 12, 1)
+        assert frame.obstacles[0].nearest_m == pytest.approx(front, rel=0.10)
+    last = out[-1][0].tracks[0]
+    assert last.approach_mps == pytest.approx(1.0, rel=0.20)
+    assert last.ttc_s == pytest.approx(out[-1][1] / 1.0, rel=0.25)
+    assert out[0][0].events[0].text == "obstacle, 12 o'clock, 2.9 metres"
+
+
+def test_clear_path_and_haptics(approach_run):
+    out, _, _ = approach_run
+    frame = out[-1][0]
+    ahead = float(frame.free_m[list(frame.hours).index(12)])
+    assert ahead == pytest.approx(out[-1][1], rel=0.15)              # blocked by the box
+    assert frame.haptics.shape == (5,) and frame.haptics.max() <= 1 and frame.haptics[2] > 0.4
+    record = frame.haptics_record()
+    json.dumps(record, allow_nan=False)
+    assert record["kind"] == "haptics" and len(record["intensity"]) == 5
+
+
+def test_pictures(approach_run):
+    out, rig, guide = approach_run
+    frame, _, result = out[-1]
+    over = draw_overlay(result.left, frame, rig, guide.params)
+    bird = draw_birdseye(frame, guide.params)
+    assert over.shape == (240, 320, 3) and over.dtype == np.uint8
+    assert bird.shape == (270, 500, 3) and bird.dtype == np.uint8
+    assert (over != result.left).any(axis=2).mean() > 0.02          # something was drawn
+    assert (bird[:, :, 2] > 200).sum() > 50                           # the red cells of the box
+
+
+def test_step_down_distance():
+    left, right, _, rig = ws.still([], step_at=3.0, step_down=0.3)
+    with Localizer(rig, None, PARAMS) as loc:
+        frame = Guide().update(loc(left, right), rig, 0.0)
+    assert frame.dropoff is not None
+    assert frame.dropoff.distance_m == pytest.approx(3.0, rel=0.15) and frame.dropoff.clock == 12
+    (event,) = [e for e in frame.events if e.kind == "drop_off"]
+    assert event.priority == "warning" and event.text.startswith("drop-off, 12 o'clock, ")
+
+
+def test_head_height_bar_and_detected_object():
+    bar = ws.Box(-0.6, 0.6, 1.55, 1.7, 3.5, 3.6, seed=9)                 # at the top of the view
+    chair = ws.Box(0.5, 1.0, 0.0, 0.9, 2.0, 2.4, seed=11)               # right of the corridor
+    left, right, _, rig = ws.still([bar, chair])
+    cam = np.array([0.75, 1.2 - 0.45, 2.0])                            # the chair's front centre, world
+    t = math.radians(10.0)
+    z = cam[2] * math.cos(t) + (1.2 - 0.45) * 0 - (cam[1] - 1.2) * math.sin(t)
+    u = 300.0 * 0.75 / z + rig.cx_left
+    det = FixedBoxes([[u - 20, 140, u + 20, 200]], names=("chair",))
+    with Localizer(rig, det, PARAMS) as loc:
+        frame = Guide().update(loc(left, right), rig, 0.0)
+    bars = [o for o in frame.obstacles if o.bottom_m > 1.0]                 # hangs: not on the ground
+    assert len(bars) == 1 and bars[0].nearest_m == pytest.approx(3.5, rel=0.10)
+    (chair_track,) = [t for t in frame.tracks if t.label == "chair"]
+    assert chair_track.clock in (12, 1, 2)                               # bearing about 20 degrees: 1 o'clock
+    assert chair_track.distance_m == pytest.approx(math.hypot(0.75, 2.1), rel=0.15)
+
+
+def test_bad_input():
+    rig = make_rig(64, 48)
+    result = SimpleNamespace(disparity=SimpleNamespace(disparity=np.full((48, 64), np.nan, np.float32)), objects=None)
+    guide = Guide()
+    frame = guide.update(result, rig, 0.0)                                # no depth at all: no ground, said so
+    assert frame.ground is None and frame.obstacles == [] and any("ground unknown" in n for n in frame.notes)
+    with pytest.raises(GuideInputError, match="`time_s` must increase"):
+        guide.update(result, rig, 0.0)
+    with pytest.raises(GuideInputError, match="`time_s`"):
+        guide.update(result, rig, float("nan"))
+    with pytest.raises(GuideInputError, match="`rig` is for 32x24"):
+        guide.update(result, make_rig(32, 24), 1.0)
+    with pytest.raises(GuideInputError, match="`rig` must be"):
+        guide.update(result, object(), 1.0)
+    later = guide.update(result, rig, 5.0)                                # a camera that paused for 5 s
+    assert any("started afresh" in n for n in later.notes)
+    with pytest.raises(GuideInputError, match="`params`"):
+        Guide(params={"camera_height": 1.0})
+    assert Guide(GuideParams(), camera_height=1.4).params.camera_height == 1.4

@@ -1,0 +1,77 @@
+"""Ground plane: mounting geometry, RANSAC fit on known planes, stability over frames, given height/pitch."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stereo_classic.guide import (
+    GroundPlane,
+    GroundTracker,
+    GuideParams,
+    PointSample,
+    fit_ground,
+)
+
+
+def _floor_sample(height=1.3, pitch=12.0, n=3000, noise=0.01, clutter=0, seed=0):
+    """Camera-frame points of a floor seen by a camera ``height`` m up, looking down ``pitch`` degrees."""
+    rng = np.random.default_rng(seed)
+    plane = GroundPlane.from_mounting(height, pitch)
+    lat = rng.uniform(-2, 2, n)
+    fwd = rng.uniform(1.0, 4.0, n)
+    pts = plane.to_camera(lat, fwd, rng.normal(0, noise, n))
+    if clutter:                                   # a table top 0.7 m up and a wall
+        pts = np.vstack([pts, plane.to_camera(rng.uniform(-0.5, 0.5, clutter), rng.uniform(1.5, 2.5, clutter), 0.7),
+                         plane.to_camera(np.full(clutter, 1.0), rng.uniform(1, 4, clutter),
+                                         rng.uniform(0, 2, clutter))])
+    f = 300.0
+    uv = np.column_stack([f * pts[:, 0] / pts[:, 2] + 160, f * pts[:, 1] / pts[:, 2] + 120])
+    return PointSample(uv=uv, xyz=pts, stride=2, focal_px=f), plane
+
+
+def test_mounting_geometry():
+    plane = GroundPlane.from_mounting(1.5, 20.0)
+    assert plane.pitch_deg == pytest.approx(20.0) and plane.roll_deg == pytest.approx(0.0, abs=1e-9)
+    ground = plane.to_ground(plane.to_camera(np.array([0.5, -1.0]), np.array([2.0, 3.0]), np.array([0.0, 1.0])))
+    np.testing.assert_allclose(ground, [[0.5, 2.0, 0.0], [-1.0, 3.0, 1.0]], atol=1e-12)
+    assert plane.to_dict() == {"height_m": 1.5, "pitch_deg": 20.0, "roll_deg": 0.0, "source": "given"}
+
+
+@pytest.mark.parametrize("height, pitch, clutter", [(1.3, 12.0, 0), (0.8, 30.0, 0), (1.6, 5.0, 400), (1.3, 12.0, 800)])
+def test_fit_recovers_height_and_pitch(height, pitch, clutter):
+    sample, _ = _floor_sample(height, pitch, clutter=clutter)
+    fit = fit_ground(sample, 36.0)
+    assert fit is not None and fit.source == "fitted"
+    assert fit.height_m == pytest.approx(height, abs=0.03)
+    assert fit.pitch_deg == pytest.approx(pitch, abs=1.0)
+
+
+def test_no_ground_is_none_not_a_guess():
+    rng = np.random.default_rng(1)
+    pts = np.column_stack([rng.uniform(-1, 1, 500), rng.uniform(-1, 1, 500), np.full(500, 3.0)])  # a wall only
+    sample = PointSample(uv=np.column_stack([pts[:, 0] * 100 + 160, pts[:, 1] * 100 + 120]), xyz=pts, stride=2,
+                         focal_px=300.0)
+    assert fit_ground(sample, 36.0) is None
+    tracker = GroundTracker(GuideParams())
+    assert tracker.update(sample, 36.0) is None
+
+
+def test_tracker_is_stable_and_keeps_the_last_plane():
+    tracker = GroundTracker(GuideParams())
+    heights = []
+    for i in range(8):
+        sample, _ = _floor_sample(1.3, 12.0, noise=0.03, seed=i)
+        heights.append(tracker.update(sample, 36.0).height_m)
+    assert np.ptp(heights) < 0.03 and abs(heights[-1] - 1.3) < 0.03
+    empty = PointSample(uv=np.zeros((0, 2)), xyz=np.zeros((0, 3)), stride=2, focal_px=300.0)
+    kept = tracker.update(empty, 36.0)
+    assert kept.source == "kept" and kept.height_m == pytest.approx(heights[-1])
+
+
+def test_given_height_and_pitch_replace_the_fit():
+    sample, _ = _floor_sample(1.3, 12.0)
+    both = GroundTracker(GuideParams(camera_height=1.0, camera_pitch=5.0)).update(sample, 36.0)
+    assert (both.source, both.height_m, round(both.pitch_deg, 6)) == ("given", 1.0, 5.0)
+    only_h = GroundTracker(GuideParams(camera_height=1.1)).update(sample, 36.0)
+    assert only_h.height_m == 1.1 and only_h.pitch_deg == pytest.approx(12.0, abs=1.0)
