@@ -23,7 +23,12 @@ import numpy as np
 
 from calib import RectifiedRig
 from stereo_classic.guide.dropoff import DropOff, find_dropoff
-from stereo_classic.guide.ground import GroundPlane, GroundTracker, sample_points
+from stereo_classic.guide.ground import (
+    GroundPlane,
+    GroundTracker,
+    PointSample,
+    sample_points,
+)
 from stereo_classic.guide.messages import Candidate, Event, MessagePolicy
 from stereo_classic.guide.obstacles import (
     Obstacle,
@@ -36,6 +41,9 @@ from stereo_classic.guide.params import GuideInputError, GuideParams
 from stereo_classic.guide.tracking import Measurement, Track, Tracker
 
 __all__ = ["Guide", "GuideFrame", "TrackView"]
+
+#: Frame-check codes (``PipelineResult.warnings``) of a pair whose depths cannot be used.
+_NOT_MEASURED = frozenset({"swapped_pair", "pair_mismatch"})
 
 
 @dataclass(frozen=True)
@@ -197,7 +205,13 @@ class Guide:
         stride = max(2, round(math.sqrt(h * w / 12000.0)))
         fb = float(rig.focal_px * rig.baseline_m)
         points = sample_points(disparity, rig, stride=stride, max_depth=max(2.5 * p.look_ahead, 10.0))
-        plane = self.ground.update(points, fb)
+        codes = {getattr(w, "code", "") for w in getattr(result, "warnings", ()) or ()}
+        if codes & _NOT_MEASURED:  # a swapped or mismatched pair: its depths are not the scene's
+            notes.append("the left/right pair is swapped or not a pair: nothing measured in this frame")
+            points = PointSample(np.zeros((0, 2)), np.zeros((0, 3)), stride, float(rig.focal_px))
+            plane = None
+        else:
+            plane = self.ground.update(points, fb)
         left_b = math.degrees(math.atan2(-rig.cx_left, rig.focal_px))
         right_b = math.degrees(math.atan2(w - 1 - rig.cx_left, rig.focal_px))
         hours_b = np.array([b for b in (-60.0, -30.0, 0.0, 30.0, 60.0) if left_b - 5 <= b <= right_b + 5])

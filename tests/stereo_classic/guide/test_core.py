@@ -121,6 +121,9 @@ def test_bad_input():
         guide.update(result, object(), 1.0)
     later = guide.update(result, rig, 5.0)                                # a camera that paused for 5 s
     assert any("started afresh" in n for n in later.notes)
+    swapped = SimpleNamespace(disparity=result.disparity, objects=None,
+                              warnings=(SimpleNamespace(code="swapped_pair"),))
+    assert any("nothing measured" in n for n in guide.update(swapped, rig, 5.1).notes)
     with pytest.raises(GuideInputError, match="`params`"):
         Guide(params={"camera_height": 1.0})
     assert Guide(GuideParams(), camera_height=1.4).params.camera_height == 1.4
