@@ -117,3 +117,22 @@ def test_a_failing_frame_on_a_worker(tmp_path, cluster, pairs):
         with pytest.raises(ValueError, match="broken_R.png"):
             run_source(PairSource(mixed), FrameWriter(tmp_path / "stop", sequence=True), params_for=_params,
                        rig=rig, executor=executor)
+
+
+def test_ctrl_c_cancels_the_cluster_run_and_leaves_no_partial_frame(tmp_path, cluster, pairs):
+    files, rig = pairs
+    out = tmp_path / "o"
+
+    def interrupt_after_three(frame, result):
+        if frame.index == 2:
+            raise KeyboardInterrupt
+
+    with DaskExecutor(cluster.scheduler_address) as executor:
+        summary = run_source(PairSource(files), FrameWriter(out, sequence=True), params_for=_params, rig=rig,
+                             executor=executor, on_frame=interrupt_after_three)
+        assert summary.interrupted and summary.frames == 3
+        names = {p.name.split("_")[0] for p in out.iterdir() if p.name != "objects.jsonl"}
+        assert names == {"f00", "f01", "f02"} and not [p for p in out.iterdir() if p.name.endswith(".tmp")]
+        again = run_source(PairSource(files), FrameWriter(out, sequence=True, resume=True), params_for=_params,
+                           rig=rig, executor=executor)
+    assert (again.frames, again.skipped) == (len(files) - 3, 3)
