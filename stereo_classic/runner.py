@@ -341,7 +341,9 @@ def run_source(source: Source, writer: FrameWriter, *, params_for: Callable[[int
     progress : bool
         Show a progress bar on stderr.
     on_frame : callable, optional
-        Called with each frame and its result after the frame is written (the command line prints there).
+        Called with each frame and its result after the frame is written (the command line prints there). The
+        frame carries its name, index, rig and left image (``right`` is the left image too: the right image is
+        not kept after matching, nor sent back by a cluster).
     on_error : {"stop", "skip"}
         A frame that cannot be read or processed (corrupt image, wrong size) ends the run ("stop", raising its
         error) or is recorded in :attr:`RunSummary.failed` and the run goes on ("skip").
