@@ -29,7 +29,8 @@ OAK-D (stereodemo)            ``<name>_left.png <name>_right.png stereodemo_cali
 ============================  ==================================================================
 
 Modules: :mod:`~stereo_classic.datasets.scene` (:class:`Scene`), one per dataset family
-(``middlebury``, ``kitti``, ``drivingstereo``, ``oakd``, ``demo``), and
+(``middlebury``, ``kitti``, ``drivingstereo``, ``oakd``, ``demo``), ``kitti_labels`` (KITTI 3D object labels and the
+LiDAR points inside each box) and
 :mod:`~stereo_classic.datasets.discovery` (:func:`load_scene`, :func:`iter_scenes`).
 
 Example
@@ -62,6 +63,15 @@ from stereo_classic.datasets.kitti import (
     read_kitti_calib_file,
     read_velodyne,
 )
+from stereo_classic.datasets.kitti_labels import (
+    KittiLabel,
+    KittiLabelError,
+    box_corners,
+    lidar_points_in_labels,
+    points_in_box,
+    read_kitti_labels,
+    velodyne_to_rect,
+)
 from stereo_classic.datasets.middlebury import load_middlebury2014, load_middlebury_classic, load_named_pair
 from stereo_classic.datasets.oakd import iter_oakd, load_oakd
 from stereo_classic.datasets.scene import Scene, SceneRef
@@ -93,4 +103,11 @@ __all__ = [
     "project_lidar",
     "read_kitti_calib_file",
     "read_velodyne",
+    "KittiLabel",
+    "KittiLabelError",
+    "read_kitti_labels",
+    "box_corners",
+    "points_in_box",
+    "velodyne_to_rect",
+    "lidar_points_in_labels",
 ]
