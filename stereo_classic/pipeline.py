@@ -9,6 +9,7 @@ the KITTI pair on a 2-core machine, 8 interleaved repetitions, sequential 286 ms
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import time
@@ -21,13 +22,16 @@ import numpy as np
 
 from calib import RectifiedRig
 from detectors import Detections, OnnxDetector, resolve_model
+from stereo_classic.checks import FrameChecker, FrameWarning
 from stereo_classic.fusion import FusionInputError, FusionParams, LocalizedObjects, as_generator, localize
 from stereo_classic.matching import DisparityMap, SGMParams, StereoInputError, StereoMatcher
 
-__all__ = ["Localizer", "PipelineResult", "format_timings", "STAGES"]
+__all__ = ["STAGES", "Localizer", "PipelineResult", "format_timings"]
+
+log = logging.getLogger(__name__)
 
 #: Stage names in ``PipelineResult.timings_ms`` (in order).
-STAGES: tuple[str, ...] = ("rectify", "disparity", "detect", "localize", "total")
+STAGES: tuple[str, ...] = ("rectify", "disparity", "detect", "localize", "checks", "total")
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,6 +51,10 @@ class PipelineResult:
     timings_ms : dict[str, float]
         Wall milliseconds per stage (:data:`STAGES`); "detect" runs concurrently with "disparity"
         when the localizer is concurrent, so the stages need not add up to "total".
+    warnings : tuple of stereo_classic.checks.FrameWarning
+        What the frame checks found (:mod:`stereo_classic.checks`): disparities piled at the end of the range
+        ("range_saturated"), a swapped or mismatched pair ("swapped_pair", "pair_mismatch"); the objects
+        concerned carry the matching status instead of a distance.
     """
 
     left: np.ndarray
@@ -55,6 +63,7 @@ class PipelineResult:
     detections: Detections | None
     objects: LocalizedObjects
     timings_ms: dict[str, float] = field(default_factory=dict)
+    warnings: tuple[FrameWarning, ...] = ()
 
 
 def _as_params(params: SGMParams | Mapping[str, Any] | None) -> SGMParams:
@@ -89,6 +98,9 @@ class Localizer:
         Run the detector in a worker thread while the matcher runs (default False: not faster on 2 cores).
     detector_options : dict, optional
         Keyword arguments for ``OnnxDetector`` when ``detector`` is a name or path.
+    checks : bool
+        Run the frame checks of :mod:`stereo_classic.checks` (default True): range saturation and a swapped or
+        mismatched pair, each costing a half-size match only when due.
     **fusion_overrides
         FusionParams fields replacing those of ``fusion`` (``method="median"``, ``box_shrink=0.3``, ...).
 
@@ -108,7 +120,8 @@ class Localizer:
     def __init__(self, rig: RectifiedRig, detector: Any = None,
                  params: SGMParams | Mapping[str, Any] | None = None, *, fusion: FusionParams | None = None,
                  seed: int = 0, classes: Iterable[str] | None = None, concurrent: bool = False,
-                 detector_options: Mapping[str, Any] | None = None, **fusion_overrides: Any) -> None:
+                 detector_options: Mapping[str, Any] | None = None, checks: bool = True,
+                 **fusion_overrides: Any) -> None:
         if not isinstance(rig, RectifiedRig):
             raise ValueError(f"`rig` must be a calib.RectifiedRig (a raw calib.StereoRig: rig.rectify() first), "
                              f"got {type(rig).__name__}")
@@ -128,6 +141,8 @@ class Localizer:
         self.detector = detector
         self.classes = tuple(classes) if classes else None
         self.concurrent = bool(concurrent) and detector is not None
+        self.checker = FrameChecker(self.matcher.params) if checks else None
+        self._warned: set[str] = set()
         self._pool: ThreadPoolExecutor | None = None
         self._first = True
 
@@ -145,6 +160,8 @@ class Localizer:
             self._pool.shutdown(wait=True)
             self._pool = None
         self.matcher.release()
+        if self.checker is not None:
+            self.checker.close()
 
     def __enter__(self) -> Localizer:
         return self
@@ -207,10 +224,28 @@ class Localizer:
         else:
             objects = LocalizedObjects.empty(self.fusion.method)
         t3 = time.perf_counter()
+        objects, warnings = self._check(left, right, dmap, objects)
+        t4 = time.perf_counter()
         timings = {"rectify": (t1 - t0) * 1e3, "disparity": t_match, "detect": t_detect,
-                   "localize": (t3 - t2) * 1e3, "total": (t3 - t0) * 1e3}
+                   "localize": (t3 - t2) * 1e3, "checks": (t4 - t3) * 1e3, "total": (t4 - t0) * 1e3}
         return PipelineResult(left=left, right=right, disparity=dmap, detections=detections, objects=objects,
-                              timings_ms=timings)
+                              timings_ms=timings, warnings=warnings)
+
+    def _check(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap,
+               objects: LocalizedObjects) -> tuple[LocalizedObjects, tuple[FrameWarning, ...]]:
+        """The frame checks (:mod:`stereo_classic.checks`): objects re-marked, warnings (logged once per kind)."""
+        if self.checker is None:
+            return objects, ()
+        warning = self.checker.check_pair(left, right, dmap)
+        if warning is not None:
+            objects = objects.with_status(np.ones(len(objects), dtype=bool), "pair_mismatch")
+        else:
+            objects, warning = self.checker.check_range(left, right, dmap, objects, self.rig, self.fusion, self.seed)
+        if warning is None:
+            return objects, ()
+        (log.debug if warning.code in self._warned else log.warning)("%s", warning.message)
+        self._warned.add(warning.code)
+        return objects, (warning,)
 
 
 def format_timings(timings: Iterable[Mapping[str, float]], *, stages: Iterable[str] | None = None) -> str:

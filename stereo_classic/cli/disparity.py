@@ -13,8 +13,9 @@ from pathlib import Path
 from typing import Any
 
 from stereo_classic import io
+from stereo_classic.checks import FrameChecker
 from stereo_classic.cli.errors import UsageError
-from stereo_classic.cli.options import add_options, option_names, read_options
+from stereo_classic.cli.options import CLI_NUM_DISPARITIES, add_options, option_names, read_options
 from stereo_classic.cli.paths import check_output_file
 from stereo_classic.matching import (
     DisparityMap,
@@ -31,7 +32,7 @@ log = logging.getLogger("stereo_classic.disparity")
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register the ``disparity`` sub-command."""
-    defaults = SGMParams()
+    defaults = SGMParams(num_disparities=CLI_NUM_DISPARITIES)  # as `run` (the library's default is 64)
     parser = subparsers.add_parser(
         "disparity",
         help="disparity map of a rectified stereo pair (PFM + colourised PNG)",
@@ -97,6 +98,11 @@ def func(args: argparse.Namespace) -> int:
              args.left, args.right, left.shape[1], left.shape[0], params.min_disparity, params.max_disparity,
              params.cost)
     dmap = compute_disparity(left, right, params)
+    checker = FrameChecker(params)
+    warning = checker.range_warning(left, right, dmap)
+    checker.close()
+    if warning is not None:
+        log.warning("warning: %s", warning.message)
     colour = None
     if png is not None:
         colour = colorize(dmap.disparity, vmin=params.min_disparity, vmax=params.max_disparity)

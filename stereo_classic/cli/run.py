@@ -37,7 +37,7 @@ from stereo_classic.cli.config import (
 )
 from stereo_classic.cli.errors import UsageError
 from stereo_classic.cli.inputs import Source, add_input_options, open_source
-from stereo_classic.cli.options import add_options, read_options
+from stereo_classic.cli.options import CLI_NUM_DISPARITIES, add_options, read_options
 from stereo_classic.cli.paths import check_output_dir
 from stereo_classic.fusion import FusionInputError, FusionParams, as_generator
 from stereo_classic.fusion.objects import TABLE_COLUMNS
@@ -117,7 +117,7 @@ def add_pipeline_options(p: Any) -> None:
 
     mat = p.add_argument_group("matcher (the same options as the disparity command; default: SGMParams')")
     add_options(mat, SGMParams, dest_prefix="matcher_", help_overrides={
-        "num_disparities": "disparities searched (default: the scene's range, else 128)"})
+        "num_disparities": f"disparities searched (default: the scene's range, else {CLI_NUM_DISPARITIES})"})
 
 
 # --------------------------------------------------------------------------------------------------
@@ -167,7 +167,7 @@ def _matcher_params(cfg: dict[str, Any], max_disparity: int | None) -> SGMParams
             scaled = max_disparity * cfg["scale"]
             fields["num_disparities"] = int(16 * math.ceil((scaled + 1) / 16))
         else:
-            fields["num_disparities"] = 128
+            fields["num_disparities"] = CLI_NUM_DISPARITIES
     if cfg["threads"] > 0:
         fields["threads"] = cfg["threads"]
     try:
@@ -233,8 +233,11 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
     quiet = getattr(args, "quiet", False)
 
     header_shown = []
+    flagged: dict[str, list[str]] = {}  # warning code -> frames (the Localizer logs each kind once)
 
     def show(frame: sources.Frame, result: PipelineResult) -> None:
+        for warning in getattr(result, "warnings", ()):
+            flagged.setdefault(warning.code, []).append(frame.name)
         table = result.objects.format_table(header=not sequence)
         if sequence:
             if not header_shown and detector is not None:  # the columns, once: "[frame] label confidence ..."
@@ -265,7 +268,7 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
             progress=not (quiet or args.no_progress) and sys.stderr.isatty(), on_frame=show,
             on_error=cfg["on_error"], executor=executor)
         wall = time.perf_counter() - started
-    return _report(summary, source, outdir, quiet, wall)
+    return _report(summary, source, outdir, quiet, wall, flagged)
 
 
 def _input_settings(args: argparse.Namespace) -> dict[str, Any]:
@@ -309,8 +312,14 @@ def _dask_executor(cfg: dict[str, Any], quiet: bool) -> Any:
         raise UsageError(str(exc)) from None
 
 
-def _report(summary: RunSummary, source: Source, outdir: Path, quiet: bool, wall: float) -> int:
-    """The end of a run: warnings, the timing table (per worker for Dask), the summary line, the exit code."""
+def _report(summary: RunSummary, source: Source, outdir: Path, quiet: bool, wall: float,
+            flagged: dict[str, list[str]] | None = None) -> int:
+    """The end of a run: warnings, the timing table (per worker for Dask), the summary line, the exit code.
+
+    ``flagged`` maps the frame checks' warning codes to the frames they came from: frames whose pair is swapped
+    or mismatched measured nothing (exit code 1); disparities piled at the end of the range are named.
+    """
+    flagged = flagged or {}
     if isinstance(source, sources.SideBySideSource) and source.stopped_early and not summary.interrupted:
         log.warning("%s stopped delivering frames after %d frame(s); finishing", source.what, source.frames_read)
     if summary.timings_ms and not quiet:
@@ -333,7 +342,16 @@ def _report(summary: RunSummary, source: Source, outdir: Path, quiet: bool, wall
         print(f"{what}: {text}; the frame in progress was not written, rerun with --resume to continue",
               file=sys.stderr)
         return 143 if summary.signal == "SIGTERM" else 130
-    if summary.failed:
+    bad_pair = sorted(set(flagged.get("swapped_pair", []) + flagged.get("pair_mismatch", [])))
+    if flagged.get("range_saturated"):
+        frames = flagged["range_saturated"]
+        log.warning("%d frame(s) had disparities piled at the end of the range (objects there marked beyond_range; "
+                    "the warning above says which --num-disparities fits): %s", len(frames),
+                    ", ".join(frames[:10]) + (", ..." if len(frames) > 10 else ""))
+    if bad_pair:
+        text += (f"; {len(bad_pair)} frame(s) NOT MEASURED: left/right swapped or not a pair (objects marked "
+                 f"pair_mismatch): " + ", ".join(bad_pair[:10]) + (", ..." if len(bad_pair) > 10 else ""))
+    if summary.failed or bad_pair:
         log.error("%s", text)
         return 1
     if summary.frames == 0 and summary.skipped == 0 and summary.skipped_scenes:

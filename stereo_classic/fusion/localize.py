@@ -110,6 +110,7 @@ def localize(
     valid_pixels = np.zeros(n, np.int64)
     ratio = np.full(n, np.nan)
     spread = np.full(n, np.nan)
+    occluded = np.zeros(n, dtype=bool)
     status: list[str] = []
     near, far = params.depth_range
     limits = _disparity_limits(pinhole, near, far)
@@ -123,7 +124,7 @@ def localize(
             status.append("out_of_range")
             continue
         if params.method == "ransac":
-            mask = _ransac_members(depths, params, gen)
+            mask, occluded[i] = _ransac_members(depths, params, gen, pinhole.doffs)
             if mask is None:
                 status.append("no_consensus")
                 continue
@@ -136,6 +137,7 @@ def localize(
             centroid = np.array([np.median(x), np.median(y), np.median(z)])
         if not (near <= centroid[2] <= far):
             status.append("out_of_range")
+            occluded[i] = False
             continue
         status.append("ok")
         xyz[i] = centroid
@@ -147,7 +149,7 @@ def localize(
     return LocalizedObjects(
         labels=labels, class_id=class_id, confidence=confidence, xyxy=xyxy.astype(np.float32),
         distance_m=distance, xyz=xyz, inliers=inliers, valid_pixels=valid_pixels, inlier_ratio=ratio,
-        spread_m=spread, status=tuple(status), method=params.method,
+        spread_m=spread, status=tuple(status), method=params.method, occluded=occluded,
     )
 
 
@@ -187,8 +189,13 @@ def _resolve_params(params: FusionParams | None, overrides: dict[str, Any]) -> F
 
 
 def _disparity_array(disparity_map: Any) -> np.ndarray:
-    """The (H, W) real disparity array of a DisparityMap (or of anything with ``.disparity``) or an array."""
-    disp_src = getattr(disparity_map, "disparity", disparity_map)  # DisparityMap or a foreign look-alike
+    """The (H, W) real disparity array of a DisparityMap (or of anything with ``.disparity``) or an array.
+
+    Of a DisparityMap, only the measured pixels (``measured_disparity``): values filled into holes are
+    guesses and never make a distance."""
+    disp_src = getattr(disparity_map, "measured_disparity", None)
+    if disp_src is None:
+        disp_src = getattr(disparity_map, "disparity", disparity_map)  # DisparityMap or a foreign look-alike
     try:
         disp = np.asarray(disp_src)
     except (TypeError, ValueError) as exc:
@@ -261,12 +268,15 @@ def _vote_weights(flat: np.ndarray, width: int, height: int, centre_sigma: float
     return np.exp(-0.5 * (gu * gu + gv * gv))
 
 
-def _ransac_members(depths: _BoxDepths, params: FusionParams, gen: np.random.Generator) -> np.ndarray | None:
-    """(k,) bool: the members of the chosen consistent set, or None when there is no consensus.
+def _ransac_members(depths: _BoxDepths, params: FusionParams, gen: np.random.Generator,
+                    doffs: float = 0.0) -> tuple[np.ndarray | None, bool]:
+    """(k,) bool: the members of the chosen consistent set (None when there is no consensus), and whether a
+    nearer set was passed over as an occluder.
 
     Boxes with more than ``max_samples`` values find their sets on a random sample; every value inside
     the chosen set's band then counts. The nearest set with at least ``near_support`` times the heaviest
-    set's support wins (ties included): the object is in front.
+    set's support wins (ties included): the object is in front; unless that set is an occluder
+    (:func:`_is_occluder`), then the heaviest set wins.
     """
     d, flat = depths.d, depths.flat
     sampled = d.size > params.max_samples
@@ -277,14 +287,38 @@ def _ransac_members(depths: _BoxDepths, params: FusionParams, gen: np.random.Gen
     clusters = sequential_clusters(ds, weights, params.tolerance_px, params.grow_density, params.max_clusters,
                                    params.max_iterations, gen, need)
     if not clusters:
-        return None
-    heaviest = clusters[0].support
-    eligible = [c for c in clusters if c.support >= params.near_support * heaviest * (1 - 1e-12)]
+        return None, False
+    heaviest = clusters[0]
+    eligible = [c for c in clusters if c.support >= params.near_support * heaviest.support * (1 - 1e-12)]
     chosen = max(eligible, key=lambda c: c.centre)
+    occluder = chosen is not heaviest and _is_occluder(
+        chosen, heaviest, flat[pick] if sampled else flat, depths.width, depths.height, params, doffs)
+    if occluder:
+        chosen = heaviest
     mask = ((d >= chosen.low) & (d <= chosen.high)) if sampled else chosen.mask
     if int(mask.sum()) < params.min_pixels:
-        return None
-    return mask
+        return None, False
+    return mask, occluder
+
+
+def _offset(flat: np.ndarray, width: int, height: int) -> float:
+    """How far off the box centre the pixels ``flat`` (row-major positions in the box) are centred: the larger
+    of the horizontal and vertical offsets of their mean, as a fraction of the box width / height (0..0.5)."""
+    u = (flat % width + 0.5) / width - 0.5
+    v = (flat // width + 0.5) / height - 0.5
+    return max(abs(float(u.mean())), abs(float(v.mean())))
+
+
+def _is_occluder(near: Any, heaviest: Any, flat: np.ndarray, width: int, height: int, params: FusionParams,
+                 doffs: float) -> bool:
+    """Whether the nearer set ``near`` (which beat the heaviest set only through ``near_support``) is an occluder
+    in front of the object: ``occluder_ratio`` times nearer than the heaviest set (depth ``Z ~ 1 / (d + doffs)``)
+    and centred at least ``occluder_offset`` off the box centre, further than the heaviest set."""
+    far_d, near_d = heaviest.centre + doffs, near.centre + doffs
+    if far_d <= 0 or near_d < params.occluder_ratio * far_d:
+        return False
+    near_off = _offset(flat[near.mask], width, height)
+    return near_off >= params.occluder_offset and near_off > _offset(flat[heaviest.mask], width, height)
 
 
 def _points(depths: _BoxDepths, mask: np.ndarray | None, pinhole: _Pinhole) -> tuple[np.ndarray, ...]:

@@ -6,6 +6,7 @@ as JSON rows or a short table; ``direction_phrase`` says where a point is for a 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -21,7 +22,10 @@ __all__ = ["STATUSES", "TABLE_COLUMNS", "LocalizedObjects", "direction_phrase"]
 TABLE_COLUMNS: tuple[str, ...] = ("label", "confidence", "distance", "x (m)", "y (m)", "z (m)", "direction")
 
 #: Every value ``LocalizedObjects.status`` can take.
-STATUSES: tuple[str, ...] = ("ok", "empty_box", "too_few_depth_pixels", "out_of_range", "no_consensus")
+#: "beyond_range" (the object is nearer than the disparity range reaches) and "pair_mismatch" (left/right swapped
+#: or not a pair) are set by the frame checks of :mod:`stereo_classic.checks`.
+STATUSES: tuple[str, ...] = ("ok", "empty_box", "too_few_depth_pixels", "out_of_range", "no_consensus",
+                             "beyond_range", "pair_mismatch")
 
 
 def direction_phrase(xyz: Sequence[float] | np.ndarray) -> str:
@@ -77,6 +81,10 @@ class LocalizedObjects:
         One of :data:`STATUSES`.
     method : str
         "ransac" or "median".
+    occluded : (N,) bool
+        A nearer consistent set off the box centre (an occluder entering from the box edge, e.g. a hand in
+        front of a chair) would have won; the distance is that of the set covering the object behind it
+        (``FusionParams.occluder_ratio``, ``occluder_offset``). Default all False.
     """
 
     labels: tuple[str, ...]
@@ -91,9 +99,15 @@ class LocalizedObjects:
     spread_m: np.ndarray
     status: tuple[str, ...]
     method: str = "ransac"
+    occluded: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.labels)
+        occluded = np.zeros(n, dtype=bool) if self.occluded is None else np.asarray(self.occluded)
+        if occluded.shape != (n,) or occluded.dtype != bool:
+            raise FusionInputError(f"LocalizedObjects.occluded must be a bool array of shape ({n},), got "
+                                   f"{occluded.dtype} {occluded.shape}")
+        object.__setattr__(self, "occluded", occluded)
         shapes = {
             "class_id": (n,), "confidence": (n,), "xyxy": (n, 4), "distance_m": (n,), "xyz": (n, 3),
             "inliers": (n,), "valid_pixels": (n,), "inlier_ratio": (n,), "spread_m": (n,),
@@ -124,7 +138,7 @@ class LocalizedObjects:
             confidence=self.confidence[rows], xyxy=self.xyxy[rows], distance_m=self.distance_m[rows],
             xyz=self.xyz[rows], inliers=self.inliers[rows], valid_pixels=self.valid_pixels[rows],
             inlier_ratio=self.inlier_ratio[rows], spread_m=self.spread_m[rows],
-            status=tuple(self.status[i] for i in rows), method=self.method,
+            status=tuple(self.status[i] for i in rows), method=self.method, occluded=self.occluded[rows],
         )
 
     @property
@@ -136,6 +150,27 @@ class LocalizedObjects:
     def directions(self) -> list[str]:
         """Human phrase per object ("ahead", "slightly left", ...), "" where unknown."""
         return [direction_phrase(p) for p in self.xyz]
+
+    def with_status(self, rows: Any, status: str) -> LocalizedObjects:
+        """A copy where ``rows`` (a boolean mask or indices) get ``status`` and, unless it is "ok", unknown
+        numbers (NaN distance and position, no inliers): a measurement found to be wrong is not reported.
+
+        >>> objs = LocalizedObjects.empty()
+        >>> len(objs.with_status(np.zeros(0, bool), "beyond_range"))
+        0
+        """
+        if status not in STATUSES:
+            raise FusionInputError(f"`status` must be one of {STATUSES}, got {status!r}")
+        picked = np.zeros(len(self), dtype=bool)
+        picked[np.arange(len(self))[rows]] = True
+        status_ = tuple(status if p else s for p, s in zip(picked, self.status))
+        if status == "ok":
+            return dataclasses.replace(self, status=status_)
+        nan = np.where(picked, np.nan, 1.0)
+        return dataclasses.replace(
+            self, status=status_, distance_m=self.distance_m * nan, xyz=self.xyz * nan[:, None],
+            inliers=np.where(picked, 0, self.inliers), inlier_ratio=self.inlier_ratio * nan,
+            spread_m=self.spread_m * nan, occluded=self.occluded & ~picked)
 
     @classmethod
     def empty(cls, method: str = "ransac") -> LocalizedObjects:
@@ -171,6 +206,7 @@ class LocalizedObjects:
                 "valid_pixels": int(self.valid_pixels[i]),
                 "inlier_ratio": _round(float(self.inlier_ratio[i]), 4),
                 "spread_m": _round(float(self.spread_m[i]), 3),
+                "occluded": bool(self.occluded[i]),
                 "method": self.method,
             })
         return out
@@ -194,8 +230,9 @@ class LocalizedObjects:
             conf = f"{float(self.confidence[i]):.2f}"
             if self.status[i] == "ok":
                 x, y, z = self.xyz[i]
+                direction = direction_phrase(self.xyz[i]) + (" (behind an occluder)" if self.occluded[i] else "")
                 rows.append((self.labels[i], conf, f"{self.distance_m[i]:.2f} m", f"{x:+.2f}", f"{y:+.2f}",
-                             f"{z:.2f}", direction_phrase(self.xyz[i])))
+                             f"{z:.2f}", direction))
             else:
                 rows.append((self.labels[i], conf, "?", "", "", "",
                              f"distance unknown ({self.status[i].replace('_', ' ')})"))

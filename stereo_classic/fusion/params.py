@@ -125,6 +125,15 @@ class FusionParams:
         Boxes with more valid pixels find their consistent sets on a random sample of this many (drawn
         with the ``rng`` of :func:`localize`); every pixel inside the chosen set's disparity band then
         counts (speed: a box covering a 1-megapixel image costs the same as a 10 000-pixel one).
+    occluder_ratio : float >= 1
+        A nearer set that wins only through ``near_support`` is an occluder when the heaviest set is at least
+        this many times farther (a hand at 0.48 m in front of a chair at 1.62 m: 3.4) ...
+    occluder_offset : float in (0, 0.5]
+        ... and the nearer set's pixels are centred at least this fraction of the (shrunk) box's width or
+        height off the box centre, further off than the heaviest set's: detectors centre the box on the object,
+        occluders enter from its edges (the hand: 0.30 of the height below the centre, the chair 0.20 above).
+        Then the heaviest set (the one covering the object) gives the distance and the object is flagged
+        ``occluded``. 0.5 turns the rule off.
 
     Raises
     ------
@@ -160,6 +169,10 @@ class FusionParams:
     max_clusters: int = 3
     max_iterations: int = 256
     max_samples: int = 10000
+    occluder_ratio: float = field(default=1.5, metadata={
+        "help": "a nearer off-centre set this many times nearer than the largest is an occluder", "metavar": "R"})
+    occluder_offset: float = field(default=0.25, metadata={
+        "help": "off-centre fraction of the box that makes a nearer set an occluder (0.5: never)", "metavar": "F"})
 
     def __post_init__(self) -> None:
         def set_(name: str, value: Any) -> None:
@@ -173,9 +186,11 @@ class FusionParams:
             near_support = float(self.near_support)
             centre_sigma = float(self.centre_sigma)
             grow_density = float(self.grow_density)
+            occluder_ratio = float(self.occluder_ratio)
+            occluder_offset = float(self.occluder_offset)
         except (TypeError, ValueError):
-            raise FusionInputError("`box_shrink`, `tolerance_px`, `near_support`, `centre_sigma` and `grow_density` "
-                                   "must be numbers") from None
+            raise FusionInputError("`box_shrink`, `tolerance_px`, `near_support`, `centre_sigma`, `grow_density`, "
+                                   "`occluder_ratio` and `occluder_offset` must be numbers") from None
         if not (0.0 <= box_shrink < 1.0):
             raise FusionInputError(f"`box_shrink` must be in [0, 1), got {box_shrink!r}")
         if not (math.isfinite(tolerance_px) and tolerance_px > 0):
@@ -186,6 +201,10 @@ class FusionParams:
             raise FusionInputError(f"`centre_sigma` must be >= 0 (0 = uniform weights), got {centre_sigma!r}")
         if not (math.isfinite(grow_density) and 0 <= grow_density <= 1):
             raise FusionInputError(f"`grow_density` must be in [0, 1] (0 = no growth), got {grow_density!r}")
+        if not (math.isfinite(occluder_ratio) and occluder_ratio >= 1):
+            raise FusionInputError(f"`occluder_ratio` must be a finite number >= 1, got {occluder_ratio!r}")
+        if not (0 < occluder_offset <= 0.5):
+            raise FusionInputError(f"`occluder_offset` must be in (0, 0.5] (0.5 = never), got {occluder_offset!r}")
         try:
             near, far = (float(v) for v in self.depth_range)
         except (TypeError, ValueError):
@@ -202,6 +221,8 @@ class FusionParams:
         set_("near_support", near_support)
         set_("centre_sigma", centre_sigma)
         set_("grow_density", grow_density)
+        set_("occluder_ratio", occluder_ratio)
+        set_("occluder_offset", occluder_offset)
         for name, value in counts.items():
             set_(name, value)
 

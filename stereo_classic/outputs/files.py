@@ -171,6 +171,7 @@ def frame_record(name: str, index: int, result: PipelineResult, rig: RectifiedRi
                 "doffs": round(float(rig.doffs), 4)},
         "detector": detector,
         "valid_fraction": round(float(result.disparity.valid_fraction), 4),
+        "warnings": [w.to_json() for w in getattr(result, "warnings", ())],  # stereo_classic.checks
         "settings": {**settings, "seed": seed, "matcher": params},
         "objects": objects,
     }
@@ -296,7 +297,8 @@ class FrameWriter:
         save = self.kinds
         disp = result.disparity.disparity
         near, far = self.depth_range
-        depth = rig.depth(disp) if {"depth", "ply"} & save else None
+        # depth and points from measured pixels only (filled values are guesses, never distances)
+        depth = rig.depth(result.disparity.measured_disparity) if {"depth", "ply"} & save else None
         if "boxes" in save:
             objs = result.objects
             image = draw_boxes(result.left, objs.xyxy, box_labels(objs)) if len(objs) else result.left

@@ -47,3 +47,36 @@ def test_a_file_that_is_not_a_video_fails_in_one_line(tmp_path, capfd, name, con
     err = capfd.readouterr().err  # file descriptor 2: what FFmpeg writes directly lands here too
     assert err.strip().splitlines() == [f"error: cannot open video {video} (not a video OpenCV can decode)"]
     assert not out.exists()
+
+
+# --- the frame checks on the command line (issue #15 items 1, 2) -------------------------------------------
+
+def test_swapped_pair_exits_1_and_says_so(tmp_path, shared_data, capsys):
+    d = shared_data / "kitti_object_pair"
+    out = tmp_path / "o"
+    argv = ["run", "--left", str(d / "right.png"), "--right", str(d / "left.png"), "--calib", str(d / "calib.txt"),
+            "--model", "none", "-o", str(out), "--save", "json"]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "left and right look swapped" in err and "NOT MEASURED" in err
+    record = json.loads((out / "right_objects.json").read_text())  # named after the --left image
+    assert [w["code"] for w in record["warnings"]] == ["swapped_pair"]
+
+
+def test_disparity_command_searches_as_many_disparities_as_run():
+    from stereo_classic.cli.main import build_parser
+
+    args = build_parser().parse_args(["disparity", "l.png", "r.png", "-o", "d.pfm"])
+    assert args.num_disparities == 128
+    run_args = build_parser().parse_args(["run"])
+    assert run_cli._matcher_params({"matcher": {}, "threads": 0, "scale": 1.0}, None).num_disparities == 128
+    assert getattr(run_args, "matcher_num_disparities", None) is None  # run's default comes from the scene or 128
+
+
+def test_disparity_command_warns_when_the_range_is_too_short(tmp_path, shared_data, capsys):
+    d = shared_data / "kitti_object_pair"
+    out = tmp_path / "d.pfm"
+    assert main(["disparity", str(d / "left.png"), str(d / "right.png"), "-o", str(out), "--num-disparities", "64",
+                 "--no-png"]) == 0
+    err = capsys.readouterr().err
+    assert "sit at the end of the disparity range (63 px)" in err and "--num-disparities" in err

@@ -110,8 +110,12 @@ def test_strict_largest_set_with_near_support_one():
     d[:, 30:] = 25.0  # near set has a third of the far set's support
     objs = localize(np.array([[0, 0, 40, 20]]), d, rig, box_shrink=0.0, near_support=1.0, centre_sigma=0)
     assert objs.distance_m[0] == pytest.approx(5.0)
+    # the near set fills the box's right quarter: an occluder by default, the object with the rule off
+    objs = localize(np.array([[0, 0, 40, 20]]), d, rig, box_shrink=0.0, near_support=0.3, centre_sigma=0,
+                    occluder_offset=0.5)
+    assert objs.distance_m[0] == pytest.approx(2.0) and not objs.occluded[0]
     objs = localize(np.array([[0, 0, 40, 20]]), d, rig, box_shrink=0.0, near_support=0.3, centre_sigma=0)
-    assert objs.distance_m[0] == pytest.approx(2.0)
+    assert objs.distance_m[0] == pytest.approx(5.0) and objs.occluded[0] and objs.status == ("ok",)
 
 
 def test_xyz_is_centroid_of_inlier_points_from_rig_points():
@@ -337,3 +341,63 @@ def test_xyz_matches_calib_rectified_rig_points_with_doffs():
     pts = rig.points(d)[10:70, 10:110].reshape(-1, 3)
     np.testing.assert_allclose(objs.xyz[0], pts.mean(axis=0), rtol=1e-5)
     assert objs.distance_m[0] == pytest.approx(900 * 0.2 / (40.0 + 31.0), rel=1e-3)
+
+
+# --- an occluder does not take the label (issue #15 item 4) -----------------------------------------------
+
+def _occluder_scene(near_rows: slice, near_cols: slice = slice(None)):
+    """A 50x40 box at 10 px (5 m with f 500, B 0.1), with a block at 40 px (1.25 m) where the slices say."""
+    rig = make_rig(50, 40, focal_px=500.0, baseline_m=0.1)
+    d = np.full((40, 50), 10.0, np.float32)
+    d[near_rows, near_cols] = 40.0
+    return d, rig
+
+
+def test_a_near_set_entering_from_the_box_edge_is_an_occluder():
+    d, rig = _occluder_scene(slice(24, 40))  # the bottom 40 %: a hand in front of a chair
+    objs = localize(np.array([[0, 0, 50, 40]]), d, rig, box_shrink=0.0, centre_sigma=0)
+    assert objs.status == ("ok",) and objs.occluded.tolist() == [True]
+    assert objs.distance_m[0] == pytest.approx(5.0)  # the set covering the object, not the hand's 1.25 m
+    assert objs.to_json()[0]["occluded"] is True
+    assert "behind an occluder" in objs.format_table()
+    assert objs[objs.ok].occluded.tolist() == [True]  # selection keeps the flag
+
+
+def test_a_central_near_object_in_front_of_a_larger_background_still_wins():
+    d, rig = _occluder_scene(slice(12, 28), slice(15, 35))  # centred, a fifth of the box: the detected object
+    objs = localize(np.array([[0, 0, 50, 40]]), d, rig, box_shrink=0.0, centre_sigma=0, near_support=0.15)
+    assert objs.distance_m[0] == pytest.approx(1.25) and not objs.occluded[0]
+
+
+@pytest.mark.parametrize(("overrides", "expected"), [
+    ({"occluder_offset": 0.5}, 1.25),   # the rule off: the near set wins as before
+    ({"occluder_ratio": 5.0}, 1.25),    # 4x nearer is not enough for a ratio of 5
+    ({}, 5.0),
+])
+def test_occluder_parameters(overrides, expected):
+    d, rig = _occluder_scene(slice(24, 40))
+    objs = localize(np.array([[0, 0, 50, 40]]), d, rig, box_shrink=0.0, centre_sigma=0, **overrides)
+    assert objs.distance_m[0] == pytest.approx(expected)
+
+
+@pytest.mark.parametrize(("name", "value"), [("occluder_ratio", 0.5), ("occluder_ratio", float("nan")),
+                                             ("occluder_offset", 0.0), ("occluder_offset", 0.6)])
+def test_occluder_parameters_are_checked(name, value):
+    from stereo_classic.fusion import FusionParams
+
+    with pytest.raises(FusionInputError, match=f"`{name}`"):
+        FusionParams(**{name: value})
+
+
+def test_pov_hands_chair_is_not_the_hand(shared_data, yolox_nano):
+    """In OAK-D `pov_hands` the hand in front of the chair used to become "chair 0.48 m"."""
+    from detectors import OnnxDetector
+    from stereo_classic.datasets import load_scene
+    from stereo_classic.pipeline import Localizer
+
+    scene = load_scene(shared_data / "oakd" / "pov_hands")
+    with Localizer(scene.rig, OnnxDetector(yolox_nano), {"num_disparities": 128}) as loc:
+        objs = loc(scene.left, scene.right).objects
+    chair = objs[np.array([label == "chair" for label in objs.labels])]
+    assert len(chair) == 1 and chair.status == ("ok",) and chair.occluded[0]
+    assert 1.3 < chair.distance_m[0] < 2.0  # the chair behind the hand (the hand is at 0.48 m)

@@ -51,7 +51,7 @@ def test_kitti_four_cars_within_five_percent_of_lidar(kitti, kitti_result):
 def test_kitti_result_shapes_and_timings(kitti, kitti_result):
     r = kitti_result
     assert r.disparity.disparity.shape == (375, 1242)
-    assert set(r.timings_ms) == {"rectify", "disparity", "detect", "localize", "total"}
+    assert set(r.timings_ms) == {"rectify", "disparity", "detect", "localize", "checks", "total"}
     assert all(v >= 0 for v in r.timings_ms.values())
     assert r.objects.xyz.shape == (len(r.detections), 3)
 

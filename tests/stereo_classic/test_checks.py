@@ -1,0 +1,137 @@
+"""The frame checks (issue #15 items 1 and 2): disparities piled at the end of the range give a warning with the
+range that fits and ``beyond_range`` objects instead of distances; a swapped or mismatched pair gives a warning and
+``pair_mismatch`` objects; no false alarm on any unswapped shared scene."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from stereo_classic.checks import (
+    SATURATION_WARN,
+    FrameChecker,
+    FrameWarning,
+    range_saturation,
+)
+from stereo_classic.matching import DisparityMap, SGMParams
+from stereo_classic.pipeline import Localizer
+from tests.helpers.detectors import FixedBoxes
+from tests.helpers.scenes import disparity_of, make_rig, planted_scene
+
+BOX = (100, 60, 200, 140)
+
+
+@pytest.fixture(scope="module")
+def near_scene():
+    """A textured box 1 m in front of a wall at 8 m: 84 px of disparity (focal 700 px, baseline 0.12 m)."""
+    rig = make_rig(320, 200)
+    left, right, _, rig = planted_scene(width=320, height=200, z_box=1.0, z_wall=8.0, box=BOX, rig=rig)
+    assert disparity_of(1.0, rig) == pytest.approx(84.0)
+    return left, right, rig
+
+
+def test_range_saturation_counts_known_pixels_within_one_px_of_the_end():
+    d = np.array([[1.0, 63.0, 62.0, 61.9, np.nan]], np.float32)
+    assert range_saturation(d, 63) == pytest.approx(0.5)
+    assert range_saturation(np.full((2, 2), np.nan), 63) == 0.0
+
+
+def test_object_beyond_the_range_is_marked_and_the_frame_says_which_range_fits(near_scene):
+    left, right, rig = near_scene
+    with Localizer(rig, FixedBoxes([BOX]), {"num_disparities": 48}) as loc:
+        r = loc(left, right)
+    assert r.objects.status == ("beyond_range",) and math.isnan(r.objects.distance_m[0])
+    assert [w.code for w in r.warnings] == ["range_saturated"]
+    msg = r.warnings[0].message
+    assert "end of the disparity range (47 px = 1.79 m)" in msg and "beyond_range" in msg
+    assert "--num-disparities 96" in msg  # about 84 px are needed
+    assert r.objects.to_json()[0]["distance_m"] is None
+
+
+def test_the_range_that_fits_measures_it_without_a_warning(near_scene):
+    left, right, rig = near_scene
+    with Localizer(rig, FixedBoxes([BOX]), {"num_disparities": 96}) as loc:
+        r = loc(left, right)
+    assert r.objects.status == ("ok",) and r.warnings == ()
+    assert r.objects.distance_m[0] == pytest.approx(1.0, rel=0.02)
+
+
+def test_checks_can_be_turned_off(near_scene):
+    left, right, rig = near_scene
+    with Localizer(rig, FixedBoxes([BOX]), {"num_disparities": 48}, checks=False) as loc:
+        r = loc(left, right)
+    assert r.objects.status == ("ok",) and r.warnings == () and "checks" in r.timings_ms
+
+
+def test_swapped_planted_pair_reports_no_distance(near_scene):
+    left, right, rig = near_scene
+    with Localizer(rig, FixedBoxes([BOX, (10, 10, 60, 60)]), {"num_disparities": 96}) as loc:
+        r = loc(right, left)
+    assert r.objects.status == ("pair_mismatch", "pair_mismatch")
+    assert np.isnan(r.objects.distance_m).all() and [w.code for w in r.warnings] == ["swapped_pair"]
+    assert "swapped" in r.warnings[0].message
+
+
+def test_a_right_image_from_another_place_is_a_mismatch(near_scene):
+    left, right, _ = near_scene
+    other = np.roll(right, 15, axis=0)  # rows do not correspond any more
+    checker = FrameChecker(SGMParams(num_disparities=96))
+    warning = checker.check_pair(left, other, _blank(left))
+    assert isinstance(warning, FrameWarning) and warning.code == "pair_mismatch"
+
+
+def _blank(image) -> DisparityMap:
+    h, w = image.shape[:2]
+    return DisparityMap(np.zeros((h, w), np.float32), None, SGMParams())
+
+
+def _range(scene) -> int:
+    return int(16 * math.ceil((scene.max_disparity + 1) / 16)) if scene.max_disparity else 128
+
+
+def test_no_false_alarm_on_any_shared_scene_and_every_swap_found(shared_data):
+    """Every scene of ../shared/data at the range `run` picks: the pair check stays quiet as given and calls the
+    swapped pair swapped (the KITTI pair, Middlebury, DrivingStereo and OAK-D scenes)."""
+    from stereo_classic.datasets import iter_scenes
+
+    names, quiet, swapped = [], [], []
+    for scene in iter_scenes(shared_data):
+        params = SGMParams(num_disparities=_range(scene))
+        names.append(scene.name)
+        quiet.append(FrameChecker(params).check_pair(scene.left, scene.right, _blank(scene.left)))
+        warning = FrameChecker(params).check_pair(scene.right, scene.left, _blank(scene.left))
+        swapped.append(None if warning is None else warning.code)
+    assert len(names) >= 25 and "kitti_object_pair" in names
+    assert [n for n, w in zip(names, quiet) if w is not None] == []
+    assert [n for n, code in zip(names, swapped) if code != "swapped_pair"] == []
+
+
+def test_oakd_hands_at_the_dataset_range_warn(shared_data):
+    """The OAK-D dataset picks 64 disparities from its calibration's near limit; the hands are at about 75 px."""
+    from stereo_classic.datasets import load_scene
+
+    scene = load_scene(shared_data / "oakd" / "pov_hands")
+    assert _range(scene) == 64
+    with Localizer(scene.rig, None, {"num_disparities": 64}) as loc:
+        r = loc(scene.left, scene.right)
+    share = range_saturation(r.disparity.disparity, 63)
+    assert share >= SATURATION_WARN
+    assert [w.code for w in r.warnings] == ["range_saturated"]
+    assert "--num-disparities 96" in r.warnings[0].message or "--num-disparities 112" in r.warnings[0].message
+
+
+def test_kitti_near_car_beyond_64_disparities(shared_data):
+    """At 64 disparities the near car (about 3.4 m, 110 px) used to read 7.06 m, ok."""
+    from stereo_classic.datasets import load_scene
+
+    scene = load_scene(shared_data / "kitti_object_pair")
+    near_car = (812.76, 184.44, 1241.0, 374.0)  # label_2.txt, the car at 4.3 m (bottom centre)
+    far_car = (470.09, 178.30, 539.83, 233.30)  # the car at 22.9 m
+    with Localizer(scene.rig, FixedBoxes([near_car, far_car]), {"num_disparities": 64}) as loc:
+        r = loc(scene.left, scene.right)
+    assert r.objects.status == ("beyond_range", "ok")
+    assert r.objects.distance_m[1] == pytest.approx(22.0, rel=0.05)
+    assert [w.code for w in r.warnings] == ["range_saturated"]
+    assert "--num-disparities 128" in r.warnings[0].message or "at least 128" in r.warnings[0].message
