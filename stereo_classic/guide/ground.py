@@ -175,7 +175,7 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
     Returns
     -------
     GroundPlane or None
-        None when fewer than 30 points (or 10 % of the candidates) support the best plane, or the camera
+        None when fewer than 30 points (or 15 % of the candidates) support the best plane, or the camera
         height it gives is outside :data:`~stereo_classic.guide.params.HEIGHT_RANGE`.
     """
     xyz = points.xyz
@@ -200,6 +200,7 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
     normals[good] /= norms[good, None]
     normals *= np.where(normals @ ref < 0, -1.0, 1.0)[:, None]          # orient towards the reference up
     good &= (normals @ ref > math.cos(limit)) & (np.abs(normals[:, 0]) < math.sin(math.radians(max_roll_deg)))
+    good &= -normals[:, 2] > math.sin(math.radians(-5.0))     # a walker's camera does not look up at the floor
     if not good.any():
         return None
     normals, a = normals[good], a[good]
@@ -214,7 +215,7 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
     below = ((signed < -3 * score_band[:, None]) & (score_pts[:, 2:3] < reach[None, :])).sum(axis=0)
     best = int(np.argmax(support - below))
     inl = cand[np.abs(cand @ normals[best] + offsets[best]) < band]
-    if len(inl) < max(30, 0.1 * len(cand)):
+    if len(inl) < max(30, 0.15 * len(cand)):
         return None
     centre = inl.mean(axis=0)
     _, _, vt = np.linalg.svd(inl - centre, full_matrices=False)
