@@ -12,8 +12,9 @@ Methods (all on the same detections, the same rig, the same disparity range):
   (``CLI_NUM_DISPARITIES``), ``FusionParams()`` defaults, the frame checks on.
 - ``ocv-3way``: OpenCV ``MODE_SGBM_3WAY`` (``benchmarks.methods.opencv_methods``, block size = ``SGMParams()``'s)
   and the same fusion (:func:`stereo_classic.localize`, ``FusionParams()``, same seed).
-- ``depthai-median``: the median depth of this project's disparity inside the box shrunk to half its width and
-  height about its centre (what DepthAI's SpatialLocationCalculator reports, without its depth thresholds).
+- ``depthai-median``: the median depth of this project's measured disparity (``DisparityMap.measured_disparity``:
+  no filled pixels) inside the box shrunk to half its width and height about its centre (what DepthAI's
+  SpatialLocationCalculator reports, without its depth thresholds).
 
 For the two fusion methods the nearest surface is the 10th percentile of the depths of the fusion's inliers.
 
@@ -257,7 +258,8 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
     with Localizer(rig, detector, params, fusion=fusion, seed=seed) as loc:
         result = loc(scene.left, scene.right)
     dets = result.detections
-    our_disp = np.asarray(result.disparity.disparity)
+    # DepthAI's median reads measured pixels only: values the matcher filled into holes are not measurements
+    our_disp = np.asarray(getattr(result.disparity, "measured_disparity", result.disparity.disparity))
     fused: dict[str, Any] = {"run": result.objects}
     inlier_z: dict[str, list[np.ndarray | None]] = {}
     nearest_reason = ""
@@ -269,7 +271,7 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
         fused["ocv-3way"] = localize(dets, ocv_disp, rig, fusion, rng=seed)
         inlier_z["ocv-3way"], nearest_reason = _fusion_inlier_depths(dets, ocv_disp, rig, fusion, seed,
                                                                      fused["ocv-3way"])
-    inlier_z["run"], reason = _fusion_inlier_depths(dets, our_disp, rig, fusion, seed, result.objects)
+    inlier_z["run"], reason = _fusion_inlier_depths(dets, result.disparity, rig, fusion, seed, result.objects)
     nearest_reason = reason or nearest_reason
 
     det_labels = list(dets.labels) if dets is not None else []
