@@ -105,7 +105,7 @@ class GuideParams:
     units: str = field(default="metres", metadata={"help": "spoken units", "metavar": None, "choices": UNITS})
     directions: str = field(default="clock", metadata={
         "help": "clock hours or left/right words", "metavar": None, "choices": DIRECTIONS})
-    min_interval: float = field(default=2.0, metadata={
+    min_interval: float = field(default=3.0, metadata={
         "help": "fewest seconds between messages that are not dangers", "metavar": "S"})
     repeat_after: float = 4.0
     track_window: float = 1.0

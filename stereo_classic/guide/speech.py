@@ -5,8 +5,9 @@ drives eSpeak, SAPI5 or NSSpeechSynthesizer). None is a dependency: without one,
 saying what to install and stays silent; speech never fails a run (an engine error is logged once, then the
 speaker goes quiet).
 
-A danger event (``interrupt=True``) stops what is being said before it is spoken; other messages wait for the
-previous one to finish.
+A danger event (``interrupt=True``) stops what is being said before it is spoken; another message that comes while
+one is being said is not spoken (it is in ``events.jsonl``; the message policy says a thing again when it changes):
+the frame loop never waits for speech. espeak-ng speaks at 190 words per minute (its default is 175).
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ INSTALL_HINT = ("no offline text-to-speech engine found: install espeak-ng (apt 
 class SpeechEngine(Protocol):
     name: str
 
-    def say(self, text: str, *, interrupt: bool) -> None: ...
+    def say(self, text: str, *, interrupt: bool) -> bool | None: ...
 
     def to_wav(self, text: str, path: Path) -> None: ...
 
@@ -48,16 +49,20 @@ class EspeakEngine:
         self.name = Path(program).name
         self._proc: subprocess.Popen | None = None
 
-    def say(self, text: str, *, interrupt: bool) -> None:
+    def say(self, text: str, *, interrupt: bool) -> bool:
+        """Start speaking ``text`` (the frame loop does not wait); False when busy and not ``interrupt``."""
         if self._proc is not None and self._proc.poll() is None:
-            if interrupt:
-                self._proc.terminate()
+            if not interrupt:
+                return False
+            self._proc.terminate()
             self._proc.wait()
-        self._proc = subprocess.Popen([self.program, "--", text], stdout=subprocess.DEVNULL,
+        self._proc = subprocess.Popen([self.program, "-s", "190", "--", text], stdout=subprocess.DEVNULL,
                                       stderr=subprocess.DEVNULL)
+        return True
 
     def to_wav(self, text: str, path: Path) -> None:
-        subprocess.run([self.program, "-w", os.fspath(path), "--", text], check=True, stdout=subprocess.DEVNULL,
+        subprocess.run([self.program, "-s", "190", "-w", os.fspath(path), "--", text], check=True,
+                       stdout=subprocess.DEVNULL,
                        stderr=subprocess.PIPE, timeout=30)
 
     def close(self) -> None:
@@ -72,9 +77,10 @@ class Pyttsx3Engine:
         self.engine = module.init()
         self.name = "pyttsx3"
 
-    def say(self, text: str, *, interrupt: bool) -> None:
+    def say(self, text: str, *, interrupt: bool) -> bool:
         self.engine.say(text)
         self.engine.runAndWait()
+        return True
 
     def to_wav(self, text: str, path: Path) -> None:
         self.engine.save_to_file(text, os.fspath(path))
