@@ -80,6 +80,10 @@ class DisparityMap:
         the right image) + "failed_lr" + "failed_uniqueness" (exact counts from the kernels), "speckle_removed",
         "filled" (by ``fill_holes``), "border" (pixels in the image bands where the full disparity
         range does not fit, matched with the range that does) and "border_valid".
+    filled : (H, W) bool or None
+        True where ``disparity`` holds a value filled in by ``fill_holes`` (a guess from the background
+        next to the hole, not a measurement); None when nothing was filled. Distances must come from
+        :attr:`measured_disparity`.
     """
 
     disparity: np.ndarray
@@ -87,6 +91,7 @@ class DisparityMap:
     params: SGMParams
     timings_ms: dict[str, float] = field(default_factory=dict)
     validity: dict[str, int | None] = field(default_factory=dict)
+    filled: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         disp = self.disparity
@@ -119,6 +124,28 @@ class DisparityMap:
         validity["valid"] = n_valid
         validity["pixels"] = int(disp.size)
         object.__setattr__(self, "validity", validity)
+        filled = self.filled
+        if filled is not None:
+            if not isinstance(filled, np.ndarray) or filled.shape != disp.shape or filled.dtype != np.bool_:
+                raise ValueError(f"`filled` must be None or a bool array of shape {disp.shape}, got "
+                                 f"{getattr(filled, 'shape', type(filled).__name__)} {getattr(filled, 'dtype', '')}")
+            if not np.isfinite(disp[filled]).all():
+                raise ValueError("`filled` marks pixels whose disparity is unknown (NaN)")
+
+    @property
+    def measured_disparity(self) -> np.ndarray:
+        """(H, W) float32: ``disparity`` with the filled pixels unknown (NaN): only what was measured."""
+        if self.filled is None or not self.filled.any():
+            return self.disparity
+        out = self.disparity.copy()
+        out[self.filled] = np.nan
+        return out
+
+    @property
+    def measured_fraction(self) -> float:
+        """Fraction (0..1) of pixels with a measured (not filled) disparity."""
+        n_filled = 0 if self.filled is None else int(self.filled.sum())
+        return (self.validity["valid"] - n_filled) / max(1, self.disparity.size)  # type: ignore[operator]
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -162,7 +189,7 @@ def _as_image(name: str, image: Any) -> np.ndarray:
 
 def _min_size(params: SGMParams) -> tuple[int, int]:
     """Smallest (height, width) an image may have for these params."""
-    if params.cost == "census":
+    if params.cost != "sad":  # census, alone or with the gradient term
         cw, ch = params.census_window
         return max(params.block_size, ch), max(params.block_size, cw)
     return params.block_size, params.block_size
@@ -421,9 +448,12 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         disparity = filter_speckles(disparity, max_size=params.speckle_size, max_diff=params.speckle_range)
     valid_after_speckle = int(np.isfinite(disparity).sum())
     filled = 0
+    filled_mask = None
     if params.fill_holes:
+        before = np.isfinite(disparity)
         disparity = fill_holes(disparity)
-        filled = int(np.isfinite(disparity).sum()) - valid_after_speckle
+        filled_mask = np.isfinite(disparity) & ~before
+        filled = int(filled_mask.sum())
     border = _border_mask(disparity.shape, params)
     t3 = time.perf_counter()
 
@@ -449,7 +479,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     if disparity_right is not None:
         disparity_right = np.asarray(disparity_right, dtype=np.float32)
     return DisparityMap(disparity=disparity, disparity_right=disparity_right, params=params,
-                        timings_ms=timings, validity=validity)
+                        timings_ms=timings, validity=validity, filled=filled_mask)
 
 
 def compute_disparity(left: Any, right: Any, params: SGMParams | None = None, **overrides: Any) -> DisparityMap:

@@ -7,7 +7,7 @@ ValueError), so that the flags, the config file and the docs are generated from 
 >>> from stereo_classic.matching import SGMParams
 >>> params = SGMParams(num_disparities=64, block_size=5)
 >>> params.effective_p1, params.effective_p2
-(20, 80)
+(28, 112)
 >>> params.replace(cost="sad").effective_p1
 200
 """
@@ -39,8 +39,9 @@ __all__ = [
 
 #: Environment variable that sets the default memory limit (bytes, or with a K/M/G/T suffix: "4G").
 MEMORY_LIMIT_ENV = "STEREO_CLASSIC_MEMORY_LIMIT"
-#: Matching costs: census transform + Hamming distance, or the paper's sum of absolute differences.
-COSTS = ("census", "sad")
+#: Matching costs: census + x-gradient (default), census transform + Hamming distance, or the paper's sum of
+#: absolute differences.
+COSTS = ("census+grad", "census", "sad")
 #: Left-right check variants (see SGMParams.lr_mode).
 LR_MODES = ("full", "opencv")
 #: Largest accepted (odd) SAD window side.
@@ -56,6 +57,9 @@ _MAX_CENSUS_BITS = 64
 # Census defaults: measured best on the developers' scenes (see docs/matching.md#parameters).
 _CENSUS_P1 = 20
 _CENSUS_P2 = 80
+# census+grad defaults: the census penalties plus OpenCV's per-pixel 8 / 32 for the gradient term (a window mean).
+_GRAD_P1 = 8
+_GRAD_P2 = 32
 # SAD defaults: OpenCV's recommendation 8 * cn * block^2 and 32 * cn * block^2 with cn = 1 (we match on grey).
 _SAD_P1_PER_PIXEL = 8
 _SAD_P2_PER_PIXEL = 32
@@ -155,17 +159,23 @@ class SGMParams:
         Number of disparities searched: ``min_disparity .. min_disparity + num_disparities - 1``.
         Any positive integer (OpenCV needs a multiple of 16; this matcher does not). Default 64.
     block_size : int
-        Odd side of the square SAD window, 1 .. 21 (used by ``cost="sad"``). Default 5.
+        Odd side of the square SAD window, 1 .. 21 (used by ``cost="sad"`` and the gradient term of
+        ``"census+grad"``). Default 5.
     p1, p2 : int or None
         Smoothness penalties for a disparity change of 1 px and of more than 1 px (``p2 > p1``).
         None uses defaults scaled to the cost: census 20 / 80 (measured best on real scenes);
+        census+grad 28 / 112 (census's plus OpenCV's 8 / 32 per pixel for the gradient mean);
         SAD ``8 * block_size**2`` / ``32 * block_size**2`` (OpenCV's rule with one channel).
         Units are those of the cost: Hamming bits for census, raw window SAD for "sad" (the kernels
         scale SAD and the penalties together). P2 is limited by the int16 path sums (census 9x7:
         at most 1343). See ``effective_p1`` / ``effective_p2``.
-    cost : {"census", "sad"}
-        Matching cost. "census" (default, robust to exposure differences between the cameras)
-        or "sad", the paper's sum of absolute differences on a gradient-prefiltered image.
+    cost : {"census+grad", "census", "sad"}
+        Matching cost. "census+grad" (default): census Hamming distance plus the window mean of the
+        absolute x-gradient difference: census is robust to exposure differences and fine structure,
+        the gradient term gives weak-texture surfaces (roads, walls) a cost that is near zero when the
+        texture is absent instead of census's noise, and has no intensity term (gradients do not change with
+        an exposure offset). "census" alone, or "sad", the paper's sum of absolute differences on the
+        x-Sobel + intensity/4 prefilter (OpenCV's cost). See docs/matching.md.
     census_window : (int, int)
         Census window (width, height), both odd, at most 64 comparison bits. Default (9, 7).
     adaptive_p2 : bool
@@ -174,9 +184,8 @@ class SGMParams:
         Uniqueness ratio in percent, 0 .. 100: the best cost must beat the second best (away
         from the winner's neighbours) by this margin, else the pixel is unknown. 0 = off (default).
     lr_check : float or None
-        Maximum left-right disparity difference in pixels; None = no left-right check (default:
-        on the real scenes it removes more good pixels than bad ones unless holes are filled;
-        use 1.0 for fewer, more reliable pixels, see docs/matching.md).
+        Maximum left-right disparity difference in pixels; None = no left-right check. Default 1.0:
+        it removes occluded and mismatched pixels, and ``fill_holes`` then fills them from the background.
     lr_mode : {"full", "opencv"}
         How the left-right check finds the right view's disparity. "full" (default): the right
         image's own winner over the same sums (strict). "opencv": StereoSGBM's check, which only
@@ -194,9 +203,12 @@ class SGMParams:
         Largest disparity step inside one speckle region, pixels. Default 2.0.
     fill_holes : bool
         Fill unknown pixels from the background side of each row, then a 3x3 median
-        (dense output, not a measurement). Default False.
-    paths : {8, 4}
-        Number of aggregation directions. Default 8.
+        (dense output, not a measurement: ``DisparityMap.filled`` marks them and distances use only
+        ``DisparityMap.measured_disparity``). Default True.
+    paths : {3, 4, 8}
+        Aggregation directions: 3 = left, right, top (OpenCV MODE_SGBM_3WAY's set; default), 4 adds
+        bottom, 8 adds the diagonals. Diagonal and bottom-up paths pay P1 at every row on surfaces slanted
+        in y (the road, the floor) and measured worse there; see docs/matching.md.
     threads : int or None
         Worker threads for the kernels; None = one per CPU. The kernels currently use at most 2
         (the forward and the backward pass run concurrently). Default None.
@@ -215,17 +227,17 @@ class SGMParams:
         "help": "penalty for a 1 px disparity change (default: by cost)", "metavar": "P1"})
     p2: int | None = dataclasses.field(default=None, metadata={
         "help": "penalty for larger disparity changes, > p1 (default: by cost)", "metavar": "P2"})
-    cost: str = dataclasses.field(default="census", metadata={
-        "help": "matching cost: census (robust to exposure differences) or sad (the paper's)",
-        "metavar": "census|sad"})
+    cost: str = dataclasses.field(default="census+grad", metadata={
+        "help": "matching cost: census+grad (census + x-gradient), census, or sad (the paper's)",
+        "metavar": "census+grad|census|sad"})
     census_window: tuple[int, int] = dataclasses.field(default=(9, 7), metadata={
         "help": "census window, odd width x odd height, at most 64 bits (cost census)", "metavar": "WxH",
         "parse": parse_census_window})
     adaptive_p2: bool = dataclasses.field(default=False, metadata={"help": "divide P2 by the intensity gradient"})
     uniqueness: float = dataclasses.field(default=0.0, metadata={
         "help": "uniqueness ratio in percent, 0 = off", "metavar": "PCT"})
-    lr_check: float | None = dataclasses.field(default=None, metadata={
-        "help": "largest left-right disparity difference, px, or 'off' (1 for fewer, more reliable pixels)",
+    lr_check: float | None = dataclasses.field(default=1.0, metadata={
+        "help": "largest left-right disparity difference, px, or 'off'",
         "metavar": "PX|off", "parse": parse_lr_check})
     lr_mode: str = dataclasses.field(default="full", metadata={
         "help": "left-right check: full (strict) or opencv (StereoSGBM's collision check)", "choices": LR_MODES})
@@ -235,9 +247,10 @@ class SGMParams:
         "help": "remove regions smaller than this many pixels, 0 = off", "metavar": "PIXELS"})
     speckle_range: float = dataclasses.field(default=2.0, metadata={
         "help": "largest disparity step inside one speckle region, px", "metavar": "PX"})
-    fill_holes: bool = dataclasses.field(default=False, metadata={
+    fill_holes: bool = dataclasses.field(default=True, metadata={
         "help": "fill unknown pixels from the background side (dense map, filled values are guesses)"})
-    paths: int = dataclasses.field(default=8, metadata={"help": "aggregation directions", "choices": (4, 8)})
+    paths: int = dataclasses.field(default=3, metadata={
+        "help": "aggregation directions: 3 (left, right, top), 4 (+bottom) or 8 (+diagonals)", "choices": (3, 4, 8)})
     threads: int | None = None
     memory_limit: int | None = None
 
@@ -310,8 +323,8 @@ class SGMParams:
         normalise("speckle_range", float(self.speckle_range))
 
         # execution
-        if not _is_int(self.paths) or self.paths not in (4, 8):
-            fail("paths", "8 or 4", self.paths)
+        if not _is_int(self.paths) or self.paths not in (3, 4, 8):
+            fail("paths", "3, 4 or 8", self.paths)
         normalise("paths", int(self.paths))
         if self.threads is not None:
             if not _is_int(self.threads) or not 1 <= self.threads <= 1024:
@@ -333,6 +346,8 @@ class SGMParams:
         """P1 actually used: ``p1``, or the default for ``cost`` when ``p1`` is None."""
         if self.p1 is not None:
             return self.p1
+        if self.cost == "census+grad":
+            return _CENSUS_P1 + _GRAD_P1
         return _CENSUS_P1 if self.cost == "census" else _SAD_P1_PER_PIXEL * self.block_size**2
 
     @property
@@ -340,6 +355,8 @@ class SGMParams:
         """P2 actually used: ``p2``, or the default for ``cost`` when ``p2`` is None."""
         if self.p2 is not None:
             return self.p2
+        if self.cost == "census+grad":
+            return _CENSUS_P2 + _GRAD_P2
         return _CENSUS_P2 if self.cost == "census" else _SAD_P2_PER_PIXEL * self.block_size**2
 
     @property

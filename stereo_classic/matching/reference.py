@@ -56,6 +56,25 @@ def cost_volume_reference(left, right, *, cost="census", min_disparity=0, num_di
     shift, cmax = cost_scale(cost, block_size, census_window, p2)
     cinv = cmax + 2 * (p2 >> shift) + 1
     out = np.full((H, W, D), cinv, np.int64)
+    if cost == "census+grad":
+        census = cost_volume_reference(left, right, cost="census", min_disparity=min_disparity,
+                                       num_disparities=num_disparities, census_window=census_window, p2=p2)
+        sl, sr = _sobel_reference(left), _sobel_reference(right)
+        r = block_size // 2
+        mul = round(1024 / (block_size * block_size))
+        for y in range(H):
+            for x in range(W):
+                for k in range(D):
+                    xr = x - min_disparity - k
+                    if not 0 <= xr < W:
+                        continue
+                    total = 0
+                    for dy in range(-r, r + 1):
+                        for dx in range(-r, r + 1):
+                            yy = min(max(y + dy, 0), H - 1)
+                            total += abs(sl[yy, min(max(x + dx, 0), W - 1)] - sr[yy, min(max(xr + dx, 0), W - 1)])
+                    out[y, x, k] = census[y, x, k] + ((total * mul) >> 10)
+        return out
     if cost == "census":
         cl = census_reference(left, census_window)
         cr = census_reference(right, census_window)

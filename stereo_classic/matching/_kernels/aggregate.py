@@ -45,6 +45,8 @@ from numba import njit
 
 from stereo_classic.matching._kernels.cost import (
     CENSUS,
+    CENSUS_GRAD,
+    GRAD_SHIFT,
     SAD,
     SAD_PIXEL_MAX,
     NoAliasCompiler,
@@ -62,7 +64,7 @@ from stereo_classic.matching._kernels.intrinsics import (
 )
 
 __all__ = ["check_penalties", "cost_scale", "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
-           "ALL_PATHS", "FOUR_PATHS", "PATH_NAMES", "PATH_STEPS"]
+           "ALL_PATHS", "FOUR_PATHS", "THREE_PATHS", "PATH_NAMES", "PATH_STEPS", "grad_mul"]
 
 #: Bit i of a path mask selects direction PATH_NAMES[i]. Bits 0-3 run in the forward pass,
 #: bits 4-7 in the backward pass. (dx, dy) is the step from the previous pixel on the path.
@@ -70,10 +72,11 @@ PATH_NAMES = ("left", "top", "top-left", "top-right", "right", "bottom", "bottom
 PATH_STEPS = ((1, 0), (0, 1), (1, 1), (-1, 1), (-1, 0), (0, -1), (-1, -1), (1, -1))
 ALL_PATHS = 0xFF
 FOUR_PATHS = 0x33  # left, top, right, bottom
+THREE_PATHS = 0x13  # left, top, right (OpenCV MODE_SGBM_3WAY's directions)
 
 _INT16_MAX = 32767
 _SENTINEL = 16383  # padding at both disparity ends of every path vector: "no neighbour"
-_KIND = {"census": CENSUS, "sad": SAD}
+_KIND = {"census": CENSUS, "sad": SAD, "census+grad": CENSUS_GRAD}
 
 
 # ----------------------------------------------------------------------------------------------
@@ -226,11 +229,18 @@ def cost_scale(cost: str, block_size: int, census_window: tuple[int, int], p2: i
     int16; ``cmax`` is the largest cost after scaling. Census has shift 0 and cmax = bits."""
     if cost == "census":
         return 0, census_bits(census_window)
+    if cost == "census+grad":  # Hamming bits + the window mean of |Sobel_x difference| (at most 2 * SOBEL_CAP)
+        return 0, census_bits(census_window) + (SAD_PIXEL_MAX - 255 // 4)
     raw = block_size * block_size * SAD_PIXEL_MAX
     shift = 0
     while ((raw >> shift) + 3 * (p2 >> shift) + 1) * 8 > _INT16_MAX:
         shift += 1
     return shift, raw >> shift
+
+
+def grad_mul(block_size: int) -> int:
+    """Multiplier of the gradient window sum of ``census+grad`` (then >> GRAD_SHIFT): the window mean."""
+    return int(round(2**GRAD_SHIFT / (block_size * block_size)))
 
 
 def check_penalties(cost: str, block_size: int, census_window: tuple[int, int], p1: int, p2: int) -> None:
@@ -317,6 +327,7 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
     shift = cost.shift
     cmax = cost.cmax
     cinv = cost.invalid_cost
+    gmul = cost.grad_mul
     p1 = settings.p1
     p2 = settings.p2
     adaptive = settings.adaptive_p2
@@ -381,13 +392,13 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
         y = y_first + step * r
         v = y if forward else H - 1 - y
         # --- per-row cost preparation
-        if kind == 0:  # rrev[q * nrr + j] = quarter q of the right code at column clamp(W - 1 - dmin - j)
+        if kind != 1:  # rrev[q * nrr + j] = quarter q of the right code at column clamp(W - 1 - dmin - j)
             for j in range(nrr):
                 c = W - 1 - dmin - j
                 c = 0 if c < 0 else (W - 1 if c >= W else c)
                 for q in range(4):
                     rrev[q * nrr + j] = rcode[y, c, q]
-        else:
+        if kind != 0:
             if r == 0 and init_cost:
                 sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D)
             else:
@@ -416,7 +427,7 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                 k_hi = D - 1
             fuse = kind == 0 and four and k_lo == 0 and k_hi == D - 1
             a0 = a1 = a2 = a3 = np.uint16(0)
-            if kind == 0:
+            if kind != 1:
                 a0 = lcode[y, x, 0]
                 a1 = lcode[y, x, 1]
                 a2 = lcode[y, x, 2]
@@ -425,12 +436,12 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
             j1 = j0 + nrr
             j2 = j1 + nrr
             j3 = j2 + nrr
-            if kind == 0:  # 4 x 16-bit quarters of the census code: vpopcntw, all in int16 lanes
+            if kind != 1:  # 4 x 16-bit quarters of the census code: vpopcntw, all in int16 lanes
                 if not fuse:
                     for k in range(D):
                         C[k] = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
                                      add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
-            else:
+            if kind != 0:
                 if i == 0:
                     sad_hsum_init(hsum, colsum, x, h, D)
                 else:  # move the window from x - step to x (sad_hsum_advance, written out)
@@ -438,9 +449,13 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                     bout = (x - step * (h + 1) + h) * D
                     for k in range(D):
                         hsum[k] += np.int32(colsum[_U(bin_ + k)]) - np.int32(colsum[_U(bout + k)])
-                for k in range(D):
-                    sv32 = hsum[k] >> shift
-                    C[k] = np.int16(sv32 if sv32 < cmax else cmax)
+                if kind == 1:
+                    for k in range(D):
+                        sv32 = hsum[k] >> shift
+                        C[k] = np.int16(sv32 if sv32 < cmax else cmax)
+                else:  # census + the window mean of the gradient differences
+                    for k in range(D):
+                        C[k] = add16(C[k], np.int16((hsum[k] * gmul) >> GRAD_SHIFT))
             # disparities whose match is outside the right image: k outside [k_lo, k_hi]
             if k_lo > 0 or k_hi < D - 1:
                 for k in range(D):

@@ -21,6 +21,7 @@ from stereo_classic.matching._kernels.aggregate import (
     _SENTINEL,
     ALL_PATHS,
     FOUR_PATHS,
+    THREE_PATHS,
     PATH_NAMES,
     PATH_STEPS,
     PassOutputs,
@@ -29,9 +30,11 @@ from stereo_classic.matching._kernels.aggregate import (
     ThreadBuffers,
     check_penalties,
     cost_scale,
+    grad_mul,
     sgm_pass,
 )
 from stereo_classic.matching._kernels.cost import (
+    CENSUS,
     SAD,
     CostImages,
     CostSettings,
@@ -42,7 +45,10 @@ from stereo_classic.matching._kernels.cost import (
 
 __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume", "check_penalties", "cost_scale",
            "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
-           "ALL_PATHS", "FOUR_PATHS", "PATH_NAMES", "PATH_STEPS"]
+           "ALL_PATHS", "FOUR_PATHS", "THREE_PATHS", "PATH_NAMES", "PATH_STEPS", "PATH_MASKS"]
+
+#: ``paths`` (the number of aggregation directions) -> the direction mask of the passes.
+PATH_MASKS = {8: ALL_PATHS, 4: FOUR_PATHS, 3: THREE_PATHS}
 
 # ----------------------------------------------------------------------------------------------
 # driver
@@ -68,16 +74,15 @@ def _thread_buffers(H: int, W: int, D: int, kind: int, h: int) -> ThreadBuffers:
         P[:, E - 1] = _SENTINEL
         paths.append(P.reshape(-1))
         minima.append(np.zeros(n, np.int16))
-    if kind == SAD:
+    if kind != CENSUS:  # SAD, or the gradient term of census+grad
         colsum = np.zeros((W + 2 * h) * D, np.int16)
-        rrev = np.zeros(1, np.uint16)
         srev = np.zeros(W + 2 * h + D - 1, np.int16)
         irev = np.zeros(W + 2 * h + D - 1, np.int16)
     else:
         colsum = np.zeros(1, np.int16)
-        rrev = np.zeros(4 * (W + D - 1), np.uint16)
         srev = np.zeros(1, np.int16)
         irev = np.zeros(1, np.int16)
+    rrev = np.zeros(4 * (W + D - 1), np.uint16) if kind != SAD else np.zeros(1, np.uint16)
     return ThreadBuffers(
         *paths, *minima, cost=np.zeros(D, np.int16), sums=np.zeros(D, np.int16), colsum=colsum,
         hsum=np.zeros(D, np.int32), rrev=rrev, srev=srev, irev=irev,
@@ -130,22 +135,32 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     2 * (D + 2) * (3 W + 3 H) bytes per thread). ``paths`` and ``lr_check`` do not change it.
     """
     H, W, D = int(height), int(width), int(num_disparities)
-    h = block_size // 2 if cost == "sad" else 0
+    h = block_size // 2 if cost != "census" else 0
     E = D + 2
     total = 2 * H * W * D  # sum volume
     total += 2 * 4 * H * W  # left and right disparity
-    total += 2 * 8 * H * W if cost == "census" else 2 * 2 * 2 * H * W + 2 * (H + 2) * (W + 2) * 2
+    if cost != "sad":  # census codes
+        total += 2 * 8 * H * W
+    if cost != "census":  # prefiltered images
+        total += 2 * 2 * 2 * H * W + 2 * (H + 2) * (W + 2) * 2
     slots = 2 + (W + H + 1) + (W + 2 * H + 1) + (W + 2)
     per_thread = 2 * E * slots + 2 * slots  # path vectors + minima
     per_thread += 2 * 2 * D + 4 * D + 2 * 2 * (W + D) + 8 * W  # C, Ssum, hsum, right view, best
-    if cost == "sad":
+    if cost != "census":
         per_thread += 2 * (W + 2 * h) * D + 2 * 2 * (W + 2 * h + D)
-    else:
+    if cost != "sad":
         per_thread += 8 * (W + D)
     return total + 2 * per_thread
 
 
 def _prepare_cost(left, right, cost, census_window, threads=1) -> CostImages:
+    if cost == "census+grad":
+        codes = _prepare_cost(left, right, "census", census_window, threads)
+        lsob, _ = sad_prefilter(left)
+        rsob, _ = sad_prefilter(right)
+        # no intensity term: zero images (distinct buffers: the kernels assume no aliasing)
+        return codes._replace(left_sobel=lsob, right_sobel=rsob, left_intensity=np.zeros_like(lsob),
+                              right_intensity=np.zeros_like(rsob))
     if cost == "census":
         if threads >= 2:
             fut = _pool().submit(census_transform, right, census_window)
@@ -175,11 +190,12 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     H, W = left.shape
     D = int(num_disparities)
     dmin = int(min_disparity)
-    h = block_size // 2 if kind == 1 else 0
+    h = block_size // 2 if kind != CENSUS else 0
     shift, cmax = cost_scale(cost, block_size, census_window, int(p2))
     p1s, p2s = int(p1) >> shift, int(p2) >> shift
     cost_settings = CostSettings(kind=kind, min_disparity=dmin, half_block=h, shift=shift, cmax=cmax,
-                                 invalid_cost=cmax + 2 * p2s + 1)
+                                 invalid_cost=cmax + 2 * p2s + 1,
+                                 grad_mul=grad_mul(block_size) if cost == "census+grad" else 0)
     timings = {}
 
     t0 = time.perf_counter()
@@ -268,12 +284,13 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
     Parameters
     ----------
     left, right : (H, W) uint8, C-contiguous, same shape.
-    cost : "census" (census_window, Hamming distance) or "sad" (block_size x block_size SAD on
-        the x-Sobel + intensity/4 prefilter). Penalties are in the units of the cost: bits for
+    cost : "census" (census_window, Hamming distance), "sad" (block_size x block_size SAD on
+        the x-Sobel + intensity/4 prefilter) or "census+grad" (census plus the block_size x block_size
+        window mean of the x-Sobel difference, no intensity term). Penalties are in the units of the cost: bits for
         census, raw window SAD for "sad" (scaled internally with the cost so the sums fit int16).
     min_disparity, num_disparities : disparity range [min, min + num), d = x_left - x_right.
     p1, p2 : SGM penalties, 0 <= p1 <= p2.
-    paths : 8 or 4 (left, right, top, bottom).
+    paths : 8, 4 (left, right, top, bottom) or 3 (left, right, top: OpenCV MODE_SGBM_3WAY's directions).
     adaptive_p2 : P2 / (1 + |I(p) - I(p - r)|), never below P1.
     uniqueness : reject when a disparity more than 1 away has sum * (1 - uniqueness) < best sum.
     lr_check : left-right check threshold in pixels; None = off.
@@ -310,9 +327,9 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
         raise ValueError(f"`left` and `right` must have the same shape, got {left.shape} and {right.shape}")
     if not (isinstance(num_disparities, (int, np.integer)) and num_disparities >= 1):
         raise ValueError(f"`num_disparities` must be a positive integer, got {num_disparities!r}")
-    if paths not in (4, 8):
-        raise ValueError(f"`paths` must be 4 or 8, got {paths}")
-    mask = ALL_PATHS if paths == 8 else FOUR_PATHS
+    if paths not in PATH_MASKS:
+        raise ValueError(f"`paths` must be one of {sorted(PATH_MASKS)}, got {paths}")
+    mask = PATH_MASKS[paths]
     disp, dispR, _, timings = _run(left, right, cost=cost, min_disparity=min_disparity,
                                    num_disparities=num_disparities, block_size=block_size,
                                    census_window=census_window, p1=p1, p2=p2, path_mask=mask,
@@ -349,8 +366,9 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
     D = int(num_disparities)
     shift, cmax = cost_scale(cost, block_size, census_window, int(p2))
     settings = CostSettings(kind=kind, min_disparity=int(min_disparity),
-                            half_block=block_size // 2 if kind == SAD else 0, shift=shift, cmax=cmax,
-                            invalid_cost=cmax + 2 * (int(p2) >> shift) + 1)
+                            half_block=block_size // 2 if kind != CENSUS else 0, shift=shift, cmax=cmax,
+                            invalid_cost=cmax + 2 * (int(p2) >> shift) + 1,
+                            grad_mul=grad_mul(block_size) if cost == "census+grad" else 0)
     images = _prepare_cost(left, right, cost, census_window)
 
     def whole(code: np.ndarray) -> np.ndarray:  # the volume kernel takes 64-bit codes (one popcount each)

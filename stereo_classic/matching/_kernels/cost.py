@@ -36,6 +36,8 @@ __all__ = [
     "SOBEL_CAP",
     "SAD_PIXEL_MAX",
     "CENSUS",
+    "CENSUS_GRAD",
+    "GRAD_SHIFT",
     "SAD",
     "CostImages",
     "CostSettings",
@@ -51,6 +53,11 @@ SAD_PIXEL_MAX = 2 * SOBEL_CAP + 255 // 4  # largest per-pixel SAD term (125)
 #: ``CostSettings.kind`` of the census cost and of the SAD cost.
 CENSUS = 0
 SAD = 1
+#: census + x-gradient SAD: the census Hamming cost plus the window mean of |Sobel_x(L) - Sobel_x(R)|
+#: (no intensity term: gradients do not change with an exposure offset between the cameras).
+CENSUS_GRAD = 2
+#: The gradient term of CENSUS_GRAD is (window sum * grad_mul) >> GRAD_SHIFT, i.e. the window mean.
+GRAD_SHIFT = 10
 
 
 class CostImages(NamedTuple):
@@ -86,7 +93,7 @@ class CostSettings(NamedTuple):
     Attributes
     ----------
     kind : int
-        ``CENSUS`` (0) or ``SAD`` (1).
+        ``CENSUS`` (0), ``SAD`` (1) or ``CENSUS_GRAD`` (2).
     min_disparity : int
         Disparity of index 0, pixels (may be negative).
     half_block : int
@@ -97,6 +104,8 @@ class CostSettings(NamedTuple):
         Largest cost after the shift.
     invalid_cost : int
         Cost of a disparity whose match lies outside the right image: ``cmax + 2 * p2_scaled + 1``.
+    grad_mul : int
+        ``CENSUS_GRAD``: ``round(2**GRAD_SHIFT / block_size**2)``, the gradient window sum to its mean; 0 otherwise.
     """
 
     kind: int
@@ -105,6 +114,7 @@ class CostSettings(NamedTuple):
     shift: int
     cmax: int
     invalid_cost: int
+    grad_mul: int = 0
 
 
 def census_bits(census_window: tuple[int, int]) -> int:
@@ -330,15 +340,16 @@ def cost_volume_kernel(images, cost, out):  # pragma: no cover - numba
     rsob = images.right_sobel
     rint = images.right_intensity
     C = np.empty(D, np.int16)
-    if kind == 0:
+    if kind != 1:  # census, alone or as the first term
         rrev = np.empty(W + D - 1, np.uint64)
         for y in range(H):
             census_reverse_row(rcode, y, rrev, dmin)
             for x in range(W):
                 census_pixel_cost(lcode[y, x], rrev, x, W, C, D)
-                fill_invalid(C, x, W, dmin, cinv, D)
+                if kind == 0:
+                    fill_invalid(C, x, W, dmin, cinv, D)
                 out[y, x, :] = C
-    else:
+    if kind != 0:  # SAD, or the gradient term added to the census cost
         L = W + 2 * h + D - 1
         srev = np.empty(L, np.int16)
         irev = np.empty(L, np.int16)
@@ -354,6 +365,10 @@ def cost_volume_kernel(images, cost, out):  # pragma: no cover - numba
                     sad_hsum_init(hsum, colsum, x, h, D)
                 else:
                     sad_hsum_advance(hsum, colsum, x, 1, h, D)
-                sad_pixel_cost(hsum, cost.shift, cost.cmax, C, D)
+                if kind == 1:
+                    sad_pixel_cost(hsum, cost.shift, cost.cmax, C, D)
+                else:
+                    for k in range(D):
+                        C[k] = np.int16(out[y, x, k] + ((hsum[k] * cost.grad_mul) >> GRAD_SHIFT))
                 fill_invalid(C, x, W, dmin, cinv, D)
                 out[y, x, :] = C

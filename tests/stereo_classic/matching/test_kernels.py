@@ -56,7 +56,7 @@ def _sample_rows(img: np.ndarray, xs: np.ndarray) -> np.ndarray:
 # cost volume
 
 
-@pytest.mark.parametrize("cost", ["census", "sad"])
+@pytest.mark.parametrize("cost", ["census", "sad", "census+grad"])
 @pytest.mark.parametrize("dmin, D", [(0, 8), (-3, 8), (2, 16), (5, 30)])
 def test_cost_volume_matches_reference(cost, dmin, D):
     left, right = _pair(1)
@@ -96,7 +96,7 @@ def test_census_is_invariant_to_gain_and_offset():
 # aggregation: every direction, exactly
 
 
-@pytest.mark.parametrize("cost", ["census", "sad"])
+@pytest.mark.parametrize("cost", ["census", "sad", "census+grad"])
 @pytest.mark.parametrize("direction", range(8))
 @pytest.mark.parametrize("dmin, D", [(0, 8), (-3, 12)])
 def test_each_direction_matches_reference(cost, direction, dmin, D):
@@ -118,7 +118,7 @@ def test_adaptive_p2_direction_matches_reference(direction):
     np.testing.assert_array_equal(got, want)
 
 
-@pytest.mark.parametrize("mask", [core.ALL_PATHS, core.FOUR_PATHS, 0b10100101])
+@pytest.mark.parametrize("mask", [core.ALL_PATHS, core.FOUR_PATHS, core.THREE_PATHS, 0b10100101])
 @pytest.mark.parametrize("threads", [1, 2])
 @pytest.mark.parametrize("shape", [(12, 22), (1, 19), (2, 9), (7, 40)])
 def test_path_sums_match_reference(mask, threads, shape):
@@ -127,6 +127,17 @@ def test_path_sums_match_reference(mask, threads, shape):
     want = ref.sum_reference(C, mask, P1, P2)
     got = core.sum_volume(left, right, path_mask=mask, threads=threads, min_disparity=-2, num_disparities=9,
                           p1=P1, p2=P2)
+    np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_default_cost_and_paths_match_reference(threads):
+    """census+grad over the three default directions (left, top, right), as the default matcher runs them."""
+    left, right = _pair(31, h=11, w=30, shift=3)
+    kw = dict(cost="census+grad", min_disparity=-1, num_disparities=10, block_size=5, census_window=(9, 7))
+    C = ref.cost_volume_reference(left, right, p2=112, **kw)
+    want = ref.sum_reference(C, core.THREE_PATHS, 28, 112)
+    got = core.sum_volume(left, right, path_mask=core.THREE_PATHS, threads=threads, p1=28, p2=112, **kw)
     np.testing.assert_array_equal(got, want)
 
 
@@ -240,13 +251,13 @@ def test_no_candidate_columns_are_nan():
 # synthetic pairs with known disparity
 
 
-@pytest.mark.parametrize("cost", ["census", "sad"])
+@pytest.mark.parametrize("cost", ["census", "sad", "census+grad"])
 @pytest.mark.parametrize("disparity", [0, 7, 13])
 def test_constant_disparity_recovered_exactly(cost, disparity):
     tex = _textured(40, 120, seed=disparity)
     left = np.round(tex).astype(np.uint8)
     right = np.round(_sample_rows(tex, np.arange(120)[None, :].repeat(40, 0) + disparity)).astype(np.uint8)
-    p = dict(p1=P1, p2=P2) if cost == "census" else dict(p1=200, p2=800)
+    p = dict(p1=P1, p2=P2) if cost != "sad" else dict(p1=200, p2=800)
     d, _, _ = core.sgm_match(left, right, cost=cost, num_disparities=32, lr_check=1.0, **p)
     inner = d[5:-5, 32:-8]
     assert np.isfinite(inner).all()
@@ -306,7 +317,7 @@ def test_slanted_plane_subpixel_error_below_a_tenth_of_a_pixel(cost, p1, p2):
 def test_bad_parameters_raise_value_errors():
     left, right = _pair(60)
     with pytest.raises(ValueError, match="paths"):
-        core.sgm_match(left, right, paths=3)
+        core.sgm_match(left, right, paths=5)
     with pytest.raises(ValueError, match="cost"):
         core.sgm_match(left, right, cost="ncc")
     with pytest.raises(ValueError, match="p2"):

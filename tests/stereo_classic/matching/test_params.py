@@ -26,8 +26,10 @@ from stereo_classic.matching.params import (
 class TestParams:
     def test_defaults_and_effective_penalties(self):
         p = SGMParams()
-        assert (p.cost, p.num_disparities, p.block_size, p.paths) == ("census", 64, 5, 8)
-        assert (p.effective_p1, p.effective_p2) == (20, 80)
+        assert (p.cost, p.num_disparities, p.block_size, p.paths) == ("census+grad", 64, 5, 3)
+        assert (p.lr_check, p.fill_holes) == (1.0, True)
+        assert (p.effective_p1, p.effective_p2) == (28, 112)
+        assert (p.replace(cost="census").effective_p1, p.replace(cost="census").effective_p2) == (20, 80)
         sad = p.replace(cost="sad", block_size=3)
         assert (sad.effective_p1, sad.effective_p2) == (8 * 9, 32 * 9)
         assert p.replace(p1=3, p2=30).effective_p2 == 30
@@ -70,7 +72,7 @@ class TestParams:
         with pytest.raises(ValueError, match=f"`{field}`"):
             SGMParams(**{field: value})
 
-    @pytest.mark.parametrize("kwargs", [dict(p1=80, p2=80), dict(p1=100), dict(cost="sad", p2=10)])
+    @pytest.mark.parametrize("kwargs", [dict(p1=80, p2=80), dict(p1=120), dict(cost="sad", p2=10)])
     def test_p2_must_exceed_p1(self, kwargs):
         with pytest.raises(ValueError, match="`p2` must be larger than `p1`"):
             SGMParams(**kwargs)
@@ -126,7 +128,7 @@ class TestCliMetadata:
 
     def test_metadata_values(self):
         meta = {f.name: f.metadata for f in dataclasses.fields(SGMParams)}
-        assert meta["lr_mode"]["choices"] == ("full", "opencv") and meta["paths"]["choices"] == (4, 8)
+        assert meta["lr_mode"]["choices"] == ("full", "opencv") and meta["paths"]["choices"] == (3, 4, 8)
         assert meta["census_window"]["parse"] is parse_census_window and meta["lr_check"]["parse"] is parse_lr_check
         assert meta["census_window"]["metavar"] == "WxH" and meta["lr_check"]["metavar"] == "PX|off"
         assert meta["subpixel"]["help"] == "integer disparities only"  # the help of --no-subpixel
