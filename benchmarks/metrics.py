@@ -1,14 +1,19 @@
-"""Disparity error metrics against ground truth, in two views and per region.
+"""Disparity error metrics against ground truth, in three views and per region.
 
 Conventions (the project's): disparity is float32 pixels, ``d = x_left - x_right``; NaN (or any
 non-finite value) means unknown. Pixels without ground truth never count, in any view.
 
-Two views, both always reported:
+Three views, always reported together, because methods of different density cannot be ranked by one:
 
-- ``"all"``: every pixel with ground truth counts; a pixel the method left unknown counts as bad
-  (for bad-t and D1). EPE and RMS are not defined for a pixel without an estimate, so in this view
-  they are ``None``; the density says how many pixels have one.
-- ``"valid"``: only pixels with ground truth *and* an estimate count.
+- ``"dense"``: the method's unknown pixels are first filled the way the KITTI stereo devkit does
+  (:func:`kitti_interpolate`, the devkit's ``interpolateBackground``), identically for every method,
+  then every pixel with ground truth counts. A method is neither rewarded nor punished for leaving
+  pixels unknown: a hole costs what the background fill next to it is worth. This is the fair view.
+- ``"all"`` (unknown-is-bad, "ukb"): every pixel with ground truth counts; a pixel the method left
+  unknown counts as bad (for bad-t and D1). EPE and RMS are not defined for a pixel without an estimate,
+  so in this view they are ``None``; the density says how many pixels have one. This rewards density.
+- ``"valid"``: only pixels with ground truth *and* an estimate count. This rewards leaving hard pixels
+  out; read it with the density.
 
 Regions: ``"full"`` (every pixel with ground truth), ``"nonocc"`` (non-occluded pixels, where a mask
 exists) and ``"border"`` (the left band ``x < max_disparity``, where a left-view matcher cannot see
@@ -22,6 +27,10 @@ Example
 >>> m = error_metrics(pred, gt)
 >>> m["all"]["bad2"], m["valid"]["bad2"], m["all"]["density"]
 (66.66666666666667, 50.0, 66.66666666666667)
+>>> kitti_interpolate(pred).tolist()  # the unknown right border takes its left neighbour
+[[1.0, 5.0, 3.0, 3.0]]
+>>> m["dense"]["bad2"]
+33.333333333333336
 """
 
 from __future__ import annotations
@@ -37,6 +46,7 @@ __all__ = [
     "VIEWS",
     "REGIONS",
     "error_metrics",
+    "kitti_interpolate",
     "scene_metrics",
     "mean_metrics",
 ]
@@ -45,7 +55,7 @@ __all__ = [
 BAD_THRESHOLDS: tuple[float, ...] = (0.5, 1.0, 2.0, 4.0)
 #: Metric keys of one view, in display order.
 METRIC_NAMES: tuple[str, ...] = ("bad0.5", "bad1", "bad2", "bad4", "epe", "rms", "d1", "density", "n")
-VIEWS: tuple[str, ...] = ("all", "valid")
+VIEWS: tuple[str, ...] = ("dense", "all", "valid")
 REGIONS: tuple[str, ...] = ("full", "nonocc", "border")
 
 
@@ -60,6 +70,48 @@ def _as_disparity(name: str, value: object) -> np.ndarray:
     if not (np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)):
         raise ValueError(f"`{name}` must hold real numbers (float disparity, NaN unknown), got dtype {array.dtype}")
     return array.astype(np.float64, copy=False)
+
+
+def kitti_interpolate(disparity: np.ndarray) -> np.ndarray:
+    """Fill unknown pixels as the KITTI stereo devkit does before scoring (``interpolateBackground``).
+
+    Row by row, each run of unknown pixels between two known ones takes the smaller (background) of
+    its two neighbours; unknown runs at the row's ends take the nearest known value. Then column by
+    column, rows that are still unknown above the first or below the last known row take the nearest
+    known value. Rows without any known pixel between known rows stay unknown, as in the devkit (they
+    then count as bad). The same fill for every method: this is what makes the dense view fair.
+
+    Parameters
+    ----------
+    disparity : (H, W) float array, NaN (or any non-finite value) unknown
+
+    Returns
+    -------
+    (H, W) float64 array
+    """
+    disp = _as_disparity("disparity", disparity).copy()
+    h, w = disp.shape
+    valid = np.isfinite(disp)
+    if w == 0 or h == 0:
+        return disp
+    cols = np.arange(w)
+    # index of the last known pixel at or left of x (-1: none) and the first at or right of x (w: none)
+    left_idx = np.maximum.accumulate(np.where(valid, cols, -1), axis=1)
+    right_idx = np.minimum.accumulate(np.where(valid, cols, w)[:, ::-1], axis=1)[:, ::-1]
+    rows = np.arange(h)[:, None]
+    left_val = np.where(left_idx >= 0, disp[rows, np.clip(left_idx, 0, w - 1)], np.nan)
+    right_val = np.where(right_idx < w, disp[rows, np.clip(right_idx, 0, w - 1)], np.nan)
+    inner = ~valid & (left_idx >= 0) & (right_idx < w)
+    disp[inner] = np.minimum(left_val[inner], right_val[inner])
+    only_right = ~valid & (left_idx < 0) & (right_idx < w)
+    disp[only_right] = right_val[only_right]
+    only_left = ~valid & (left_idx >= 0) & (right_idx >= w)
+    disp[only_left] = left_val[only_left]
+    known_rows = np.flatnonzero(np.isfinite(disp).all(axis=1))
+    if known_rows.size:
+        disp[: known_rows[0]] = disp[known_rows[0]]
+        disp[known_rows[-1] + 1:] = disp[known_rows[-1]]
+    return disp
 
 
 def error_metrics(
@@ -85,7 +137,7 @@ def error_metrics(
     Returns
     -------
     dict
-        ``{"all": {...}, "valid": {...}}``; each view maps ``"bad0.5"``, ``"bad1"``, ``"bad2"``,
+        ``{"dense": {...}, "all": {...}, "valid": {...}}``; each view maps ``"bad0.5"``, ``"bad1"``, ``"bad2"``,
         ``"bad4"``, ``"d1"`` and ``"density"`` to percentages, ``"epe"`` and ``"rms"`` to pixels and
         ``"n"`` to the number of pixels counted. A value that is not defined (no pixel counted, or EPE
         in the "all" view) is ``None``.
@@ -123,7 +175,18 @@ def error_metrics(
     def pct(count: int, total: int) -> float | None:
         return 100.0 * count / total if total else None
 
-    views: dict[str, dict[str, float | int | None]] = {"all": {}, "valid": {}}
+    views: dict[str, dict[str, float | int | None]] = {"dense": {}, "all": {}, "valid": {}}
+    filled = kitti_interpolate(pred)
+    dense_err = np.abs(filled[known] - gt[known])  # NaN where the fill left a pixel unknown: bad
+    dense_bad = ~(dense_err <= np.inf)
+    for t in thresholds:
+        views["dense"][_bad_key(t)] = pct(int(np.count_nonzero(dense_bad | (dense_err > t))), n_known)
+    finite_err = dense_err[~dense_bad]
+    views["dense"]["epe"] = float(finite_err.mean()) if finite_err.size and not dense_bad.any() else None
+    views["dense"]["rms"] = (float(np.sqrt(np.mean(finite_err * finite_err)))
+                             if finite_err.size and not dense_bad.any() else None)
+    d1_dense = dense_bad | ((dense_err > 3.0) & (dense_err > 0.05 * np.abs(gt[known])))
+    views["dense"]["d1"] = pct(int(np.count_nonzero(d1_dense)), n_known)
     for t in thresholds:
         bad = int(np.count_nonzero(err > t))
         views["all"][_bad_key(t)] = pct(bad + n_unknown, n_known)
@@ -137,6 +200,8 @@ def error_metrics(
     views["all"]["d1"] = pct(d1_bad + n_unknown, n_known)
     views["valid"]["d1"] = pct(d1_bad, n_valid)
     density = pct(n_valid, n_known)
+    views["dense"]["density"] = density
+    views["dense"]["n"] = n_known
     views["all"]["density"] = density
     views["valid"]["density"] = density
     views["all"]["n"] = n_known
