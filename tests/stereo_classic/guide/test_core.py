@@ -19,6 +19,9 @@ from tests.helpers.detectors import FixedBoxes
 from tests.helpers.scenes import make_rig
 
 PARAMS = {"num_disparities": 64}
+# The frame checks (stereo_classic.checks) are tested elsewhere; on these rendered floors (nearly mirror-symmetric)
+# they may call the pair "not a pair", which the guide honours by measuring nothing (test_bad_input).
+NO_CHECKS = {"checks": False}
 
 
 @pytest.fixture(scope="module")
@@ -27,7 +30,7 @@ def approach_run():
     frames, rig = ws.approach(n=10, speed=1.0, start=3.0)
     guide = Guide()
     out = []
-    with Localizer(rig, None, PARAMS) as loc:
+    with Localizer(rig, None, PARAMS, **NO_CHECKS) as loc:
         for left, right, front, t in frames:
             result = loc(left, right)
             out.append((guide.update(result, rig, t, frame=f"f{round(t * 10)}"), front, result))
@@ -79,11 +82,8 @@ def test_pictures(approach_run):
 
 def test_step_down_distance():
     left, right, _, rig = ws.still([ws.Box(1.8, 1.9, 0.0, 3.0, 0.0, 20.0, seed=7)], step_at=3.0, step_down=0.3)
-    with Localizer(rig, None, PARAMS) as loc:
-        result = loc(left, right)
-    # The pair checks (stereo_classic.checks) call this rendered floor "not a pair" (100 % consistent both ways: a
-    # floor is nearly mirror-symmetric); the depths are right, so the guide is given them without the warnings.
-    frame = Guide().update(SimpleNamespace(disparity=result.disparity, objects=result.objects), rig, 0.0)
+    with Localizer(rig, None, PARAMS, **NO_CHECKS) as loc:
+        frame = Guide().update(loc(left, right), rig, 0.0)
     assert frame.dropoff is not None
     assert frame.dropoff.distance_m == pytest.approx(3.0, rel=0.15) and frame.dropoff.clock == 12
     (event,) = [e for e in frame.events if e.kind == "drop_off"]
@@ -99,9 +99,9 @@ def test_head_height_bar_and_detected_object():
     z = cam[2] * math.cos(t) + (1.2 - 0.45) * 0 - (cam[1] - 1.2) * math.sin(t)
     u = 300.0 * 0.75 / z + rig.cx_left
     det = FixedBoxes([[u - 20, 140, u + 20, 200]], names=("chair",))
-    with Localizer(rig, det, PARAMS) as loc:
+    with Localizer(rig, det, PARAMS, **NO_CHECKS) as loc:
         frame = Guide().update(loc(left, right), rig, 0.0)
-    bars = [o for o in frame.obstacles if o.bottom_m > 1.0]                 # hangs: not on the ground
+    bars = [o for o in frame.obstacles if o.top_m > 1.4]                    # reaches head height
     assert len(bars) == 1 and bars[0].nearest_m == pytest.approx(3.5, rel=0.10)
     (chair_track,) = [t for t in frame.tracks if t.label == "chair"]
     assert chair_track.clock in (12, 1, 2)                               # bearing about 20 degrees: 1 o'clock
