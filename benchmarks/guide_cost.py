@@ -27,8 +27,8 @@ __all__ = ["main", "measure"]
 
 
 def measure(data: Path, repeat: int = 5, model: str | None = "yolox_nano") -> dict[str, float]:
-    """{"guide_median_ms", "guide_p90_ms", "guide_cpu_median_ms", "pipeline_median_ms", "frames"} over the
-    OAK-D scenes in ``data``."""
+    """{"guide_median_ms", "guide_p90_ms", "guide_cpu_median_ms", "pipeline_median_ms", "frames", "width",
+    "height"} over the OAK-D scenes in ``data``."""
     rig = calib.load_rig(data / "stereodemo_calibration.json")
     lefts = sorted(data.glob("*_left.png"))
     if not lefts:
@@ -59,7 +59,7 @@ def measure(data: Path, repeat: int = 5, model: str | None = "yolox_nano") -> di
     arr = np.array(times)
     return {"guide_median_ms": float(np.median(arr)), "guide_p90_ms": float(np.percentile(arr, 90)),
             "guide_cpu_median_ms": float(np.median(cpu)), "pipeline_median_ms": float(np.median(pipeline_ms)),
-            "frames": float(len(arr))}
+            "frames": float(len(arr)), "width": float(rig.image_size[0]), "height": float(rig.image_size[1])}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -77,7 +77,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     r = measure(data, args.repeat)
     print(f"guide: median {r['guide_median_ms']:.1f} ms wall (p90 {r['guide_p90_ms']:.1f} ms), "
-          f"{r['guide_cpu_median_ms']:.1f} ms CPU per 640x480 frame ({int(r['frames'])} frames); "
+          f"{r['guide_cpu_median_ms']:.1f} ms CPU per {int(r['width'])}x{int(r['height'])} frame "
+          f"({int(r['frames'])} frames); "
           f"pipeline median {r['pipeline_median_ms']:.0f} ms")
     return 0
 

@@ -143,3 +143,12 @@ def test_a_camera_that_stops_ends_with_an_error(walk, tmp_path, monkeypatch, cap
     code = main(["guide", "--camera", "0", "--calib", str(walk / "rig.yaml"), "-o", str(out), *BASE])
     assert code == 1 and "stopped delivering frames after 3 frame(s)" in capsys.readouterr().err
     assert len([r for r in _lines(out) if r["kind"] == "haptics"]) == 3
+
+
+def test_config_file_options(walk, tmp_path):
+    config = tmp_path / "guide.toml"
+    config.write_text('model = "none"\nmax_frames = 2\n\n[matcher]\nnum_disparities = 64\n')
+    out = tmp_path / "g"
+    code = main(["guide", "--left", str(walk / "l_*.png"), "--right", str(walk / "r_*.png"), "--calib",
+                 str(walk / "rig.yaml"), "-o", str(out), "--config", str(config)])
+    assert code == 0 and len([r for r in _lines(out) if r["kind"] == "haptics"]) == 2
