@@ -11,21 +11,25 @@ pixels, so a quarter of the matcher's time):
   selfie and controllers at 64). :data:`SATURATION_WARN` is 0.5 %: at 640x480 about 1 500 pixels, an object's
   worth, two and a half times the largest share seen on a scene that fits. A box is suspect when
   :data:`BOX_SATURATION` (5 %) of its known pixels are at the end, or fewer than :data:`BOX_SPARSE` (60 %) of
-  its pixels are known (a fine texture beyond the range matches the wall behind rather than pile up). Then
-  the pair is matched again at half
-  size with the same number of disparities, which reaches twice as far: the frame's warning says which
-  range would fit, and each object whose disparity there lies beyond the full-size range gets the status
-  ``"beyond_range"`` instead of a distance (what it had was the best of wrong candidates).
+  its pixels are known (a fine texture beyond the range matches the wall behind rather than pile up; a
+  hole-filled map hides this). Then the pair is matched again at half size with the same number of
+  disparities, which reaches twice as far (the first frame's pair check has that look anyway, so there every
+  object is verified): the frame's warning says which range would fit, and each object whose disparity
+  there lies more than 2 px (the look's own step) beyond the full-size range gets the status
+  ``"beyond_range"`` instead of a distance (what it had was the best of wrong candidates). The half-size looks
+  use fixed settings (census, 1 px left-right check, no hole filling), whatever the caller's.
 * **Pair.** Swapped images have negative disparities, which the search does not cover: matching the pair the
-  other way round (right as left) then finds more consistent pixels than the given order. On every shared
-  scene the given order keeps 11 to 45 points more of its half-size pixels than the reverse (stairs 11, KITTI
-  46); swapped, the reverse keeps as much more. The pair is called swapped when the reverse keeps
-  :data:`SWAP_MARGIN` (3 points) more, and mismatched when neither order is preferred by more than that, or
-  neither keeps :data:`MISMATCH_VALID` (30 %) of its pixels (a right image shifted 12 rows: 1 point). Two
-  unrelated images of one camera can still prefer an order by 6 points: those are caught by the range
-  check at best (their disparities pile at the end too). Every object of a swapped or mismatched frame
-  gets the status ``"pair_mismatch"``. The check runs on the first frame a :class:`FrameChecker` sees and
-  again whenever the valid fraction falls below 3/4 of that first frame's (a stream keeps its cabling).
+  other way round (right as left) then finds more left-right consistent pixels than the given order. The
+  check matches the half-size pair both ways; its valid fraction is the share of consistent pixels. On every
+  shared scene and the demo the given order keeps 16 to 82 points more of its pixels than the reverse (stairs
+  47 % against 31 %, the Motorcycle 92 % against 10 %); swapped, the reverse keeps as much more. The pair is
+  called swapped when the reverse keeps :data:`SWAP_MARGIN` (3 points) more, and mismatched when neither order
+  is preferred by more than that or neither keeps :data:`MISMATCH_VALID` (30 %) of its pixels (two unrelated
+  OAK-D images: 8 to 10 %; the lowest real pair, stairs: 47 %). A right image shifted by 12 rows still keeps
+  35 %: a vertical offset is what the rectification check of ``RectifiedRig.rectify_pair`` measures. Every
+  object of a swapped or mismatched frame gets the status ``"pair_mismatch"``. The check runs on the first
+  frame a :class:`FrameChecker` sees and again whenever the valid fraction falls below 3/4 of that first
+  frame's (a stream keeps its cabling).
 """
 
 from __future__ import annotations
@@ -117,26 +121,25 @@ class FrameChecker:
         self.params = params
         self._matcher: StereoMatcher | None = None
         self._first_valid: float | None = None
-        self._forward: tuple[int, DisparityMap | None] | None = None  # (id of the left image, its half-size look)
+        self._look: tuple[np.ndarray, DisparityMap] | None = None  # (left image, its half-size look) of this frame
 
     def _half_match(self, left: np.ndarray, right: np.ndarray) -> DisparityMap | None:
         """Disparity of the half-size pair with the same number of disparities (twice the reach), or None when
-        the half-size images are too small for it. The look at (left, right) is kept for the frame's other check."""
-        if self._forward is not None and self._forward[0] == id(left):
-            return self._forward[1]
-        p = self.params
+        the half-size images are too small for it.
+
+        The settings are fixed, whatever the caller's (census cost with its default penalties, the full 1 px
+        left-right check, no hole filling): the valid fraction is the share of left-right consistent pixels and
+        every disparity a measured one.
+        """
         try:
             if self._matcher is None:
-                self._matcher = StereoMatcher(p.replace(min_disparity=math.floor(p.min_disparity / 2)))
-            dmap = self._matcher.compute(_half(left), _half(right))
+                p = self.params
+                self._matcher = StereoMatcher(p.replace(
+                    min_disparity=math.floor(p.min_disparity / 2), cost="census", p1=None, p2=None, lr_check=1.0,
+                    lr_mode="full", fill_holes=False))
+            return self._matcher.compute(_half(left), _half(right))
         except ValueError:  # StereoInputError, MemoryBudgetError: the images are too small for the range
-            dmap = None
-        return dmap
-
-    def _forward_look(self, left: np.ndarray, right: np.ndarray) -> DisparityMap | None:
-        dmap = self._half_match(left, right)
-        self._forward = (id(left), dmap)
-        return dmap
+            return None
 
     def close(self) -> None:
         if self._matcher is not None:
@@ -144,18 +147,22 @@ class FrameChecker:
 
     # ------------------------------------------------------------------------------------------ pair
     def check_pair(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap) -> FrameWarning | None:
-        """The swapped / mismatched pair warning, or None (also when the check was not due)."""
-        self._forward = None  # a look kept from an earlier frame is never reused
+        """The swapped / mismatched pair warning, or None (also when the check was not due).
+
+        The half-size look at the pair as given is kept for :meth:`check_range` on the same frame.
+        """
+        self._look = None
         valid = dmap.valid_fraction
         if self._first_valid is not None and valid >= 0.75 * self._first_valid:
             return None
         h, w = left.shape[:2]
         if w // 2 < max(MIN_CHECK_WIDTH, self.params.num_disparities + 32) or h // 2 < MIN_CHECK_HEIGHT:
             return None  # too small to tell: on tiny images nearly every match is consistent both ways
-        forward = self._forward_look(left, right)
+        forward = self._half_match(left, right)
         backward = self._half_match(right, left)
         if forward is None or backward is None:
             return None
+        self._look = (left, forward)
         fwd, rev = forward.valid_fraction, backward.valid_fraction
         if self._first_valid is None:
             self._first_valid = valid
@@ -179,10 +186,11 @@ class FrameChecker:
         top = float(dmap.params.max_disparity)
         frame_share = range_saturation(disp, top)
         boxes = _suspect_boxes(disp, objects, top, fusion.box_shrink)
-        if frame_share < SATURATION_WARN and not boxes.any():
+        look, self._look = self._look, None
+        looked = look is not None and look[0] is left  # the pair check looked at this frame: use it for every box
+        if frame_share < SATURATION_WARN and not boxes.any() and not looked:
             return objects, None
-        probe = self._forward_look(left, right)
-        self._forward = None
+        probe = look[1] if looked else self._half_match(left, right)
         if probe is None:
             return objects, (FrameWarning("range_saturated", _range_message(frame_share, top, rig, None))
                              if frame_share >= SATURATION_WARN else None)
@@ -190,11 +198,14 @@ class FrameChecker:
         wide = cv2.resize(probe.disparity * np.float32(2.0), (w, h), interpolation=cv2.INTER_NEAREST)
         beyond = np.zeros(len(objects), dtype=bool)
         needed_by_objects: float | None = None
+        if frame_share >= SATURATION_WARN or looked:
+            boxes[:] = True  # the frame is suspect, or the look is there anyway: every object is looked at again
         if boxes.any():
             again = localize(objects.xyxy[boxes], wide, rig, fusion, rng=seed)
             with np.errstate(divide="ignore", invalid="ignore"):
                 d_again = rig.focal_px * rig.baseline_m / again.distance_m - rig.doffs
-            far_out = np.array(again.ok) & (d_again >= top - 1.0)
+            # beyond the end by more than the half-size look's own step (1 px there, 2 px here)
+            far_out = np.array(again.ok) & (d_again >= top + 2.0)
             beyond[np.flatnonzero(boxes)] = far_out
             if far_out.any():
                 needed_by_objects = float(d_again[far_out].max())
