@@ -155,6 +155,10 @@ class FrameChecker:
         valid = dmap.valid_fraction
         if self._first_valid is not None and valid >= 0.75 * self._first_valid:
             return None
+        if left.shape == right.shape and np.array_equal(left, right):
+            self._first_valid = valid if self._first_valid is None else self._first_valid
+            return FrameWarning("pair_mismatch", "left and right are the same image (every disparity is 0, every "
+                                                 "depth infinite); no distance is reported")
         h, w = left.shape[:2]
         if w // 2 < max(MIN_CHECK_WIDTH, self.params.num_disparities + 32) or h // 2 < MIN_CHECK_HEIGHT:
             return None  # too small to tell: on tiny images nearly every match is consistent both ways

@@ -99,10 +99,10 @@ def func(args: argparse.Namespace) -> int:
              params.cost)
     dmap = compute_disparity(left, right, params)
     checker = FrameChecker(params)
-    warning = checker.range_warning(left, right, dmap)
+    for warning in (checker.check_pair(left, right, dmap), checker.range_warning(left, right, dmap)):
+        if warning is not None:  # the map is still written: it is what the images give, but say it is wrong
+            log.warning("warning: %s", warning.message)
     checker.close()
-    if warning is not None:
-        log.warning("warning: %s", warning.message)
     colour = None
     if png is not None:
         colour = colorize(dmap.disparity, vmin=params.min_disparity, vmax=params.max_disparity)

@@ -135,3 +135,11 @@ def test_kitti_near_car_beyond_64_disparities(shared_data):
     assert r.objects.distance_m[1] == pytest.approx(22.0, rel=0.05)
     assert [w.code for w in r.warnings] == ["range_saturated"]
     assert "--num-disparities 128" in r.warnings[0].message or "at least 128" in r.warnings[0].message
+
+
+def test_the_same_image_twice_is_not_a_pair(near_scene):
+    left, _, rig = near_scene
+    with Localizer(rig, FixedBoxes([BOX]), {"num_disparities": 96}) as loc:
+        r = loc(left, left.copy())
+    assert r.objects.status == ("pair_mismatch",)
+    assert [w.code for w in r.warnings] == ["pair_mismatch"] and "same image" in r.warnings[0].message

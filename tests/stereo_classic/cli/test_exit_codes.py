@@ -80,3 +80,21 @@ def test_disparity_command_warns_when_the_range_is_too_short(tmp_path, shared_da
                  "--no-png"]) == 0
     err = capsys.readouterr().err
     assert "sit at the end of the disparity range (63 px)" in err and "--num-disparities" in err
+
+
+def test_disparity_command_warns_about_a_swapped_pair(tmp_path, capsys):
+    import cv2
+
+    from tests.helpers.scenes import make_rig, planted_scene
+
+    left, right, _, _ = planted_scene(width=320, height=200, z_box=2.0, z_wall=8.0, box=(100, 60, 200, 140),
+                                      rig=make_rig(320, 200))
+    cv2.imwrite(str(tmp_path / "l.png"), left)
+    cv2.imwrite(str(tmp_path / "r.png"), right)
+    out = tmp_path / "d.pfm"
+    assert main(["disparity", str(tmp_path / "r.png"), str(tmp_path / "l.png"), "-o", str(out), "--no-png",
+                 "--num-disparities", "64"]) == 0
+    assert "left and right look swapped" in capsys.readouterr().err
+    assert main(["disparity", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "-o", str(out), "--no-png",
+                 "--num-disparities", "64"]) == 0
+    assert "warning" not in capsys.readouterr().err
