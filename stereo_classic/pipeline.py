@@ -23,8 +23,19 @@ import numpy as np
 from calib import RectifiedRig
 from detectors import Detections, OnnxDetector, resolve_model
 from stereo_classic.checks import FrameChecker, FrameWarning
-from stereo_classic.fusion import FusionInputError, FusionParams, LocalizedObjects, as_generator, localize
-from stereo_classic.matching import DisparityMap, SGMParams, StereoInputError, StereoMatcher
+from stereo_classic.fusion import (
+    FusionInputError,
+    FusionParams,
+    LocalizedObjects,
+    as_generator,
+    localize,
+)
+from stereo_classic.matching import (
+    DisparityMap,
+    SGMParams,
+    StereoInputError,
+    StereoMatcher,
+)
 
 __all__ = ["STAGES", "Localizer", "PipelineResult", "format_timings"]
 

@@ -15,7 +15,12 @@ from typing import Any
 from stereo_classic import io
 from stereo_classic.checks import FrameChecker
 from stereo_classic.cli.errors import UsageError
-from stereo_classic.cli.options import CLI_NUM_DISPARITIES, add_options, option_names, read_options
+from stereo_classic.cli.options import (
+    CLI_NUM_DISPARITIES,
+    add_options,
+    option_names,
+    read_options,
+)
 from stereo_classic.cli.paths import check_output_file
 from stereo_classic.matching import (
     DisparityMap,
