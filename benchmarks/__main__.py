@@ -67,6 +67,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-memory", action="store_true", help="skip the per-method memory probes")
     p.add_argument("--no-objects", action="store_true", help="skip detector latency, pipeline fps and object distances")
     p.add_argument("--no-figures", action="store_true", help="write no figures")
+    p.add_argument("--no-scaling", action="store_true", help="skip the thread-scaling table (matcher and 3WAY on the KITTI pair)")
     p.add_argument("--quick", action="store_true", help="real scenes only (no synthetic sizes), first thread count only, one memory probe")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     verbosity = p.add_mutually_exclusive_group()
@@ -132,7 +133,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             threads=tuple(args.threads), block_size=args.block_size, sizes=sizes, stereo_onnx=list(args.stereo_onnx),
             onnx_options=onnx_options, models_dir=args.models if args.models is not None else _default_dir("STEREO_CLASSIC_MODELS", "models"),
             memory=not args.no_memory, objects=not args.no_objects, figures=not args.no_figures, quick=args.quick,
-            progress=False if args.no_progress else None,
+            progress=False if args.no_progress else None, scaling=not args.no_scaling,
         )
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)

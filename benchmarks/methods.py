@@ -4,6 +4,11 @@ Every method is run on the same input pair with the same disparity range (``min_
 ``num_disparities``) and block size, except where a method's definition fixes them (the KITTI 2015
 "OCV-SGBM" settings use block 3). Each returns a float32 (H, W) disparity in pixels with NaN where
 unknown, so the metrics count every method's invalid border the same way.
+
+A method whose output holds values it did not measure (this project's matcher fills its holes,
+``SGMParams.fill_holes``, marked in ``DisparityMap.filled``) returns both: the output (scored in the
+dense and unknown-is-bad views) and the measured pixels only (scored in the valid view), as a
+``DisparityMap`` or a ``(output, measured)`` tuple; :func:`output_views` reads either.
 """
 
 from __future__ import annotations
@@ -17,18 +22,21 @@ import cv2
 import numpy as np
 
 __all__ = [
-    "Setup",
+    "OPENCV_COMMON",
     "Method",
     "Runner",
-    "opencv_methods",
-    "stereo_classic_methods",
+    "Setup",
     "default_methods",
+    "opencv_methods",
     "opencv_to_disparity",
-    "OPENCV_COMMON",
+    "output_views",
+    "stereo_classic_methods",
 ]
 
-#: A prepared method: ``runner(left, right) -> (H, W) float32 disparity, NaN unknown``.
-Runner = Callable[[np.ndarray, np.ndarray], np.ndarray]
+#: A prepared method: ``runner(left, right) -> (H, W) float32 disparity, NaN unknown`` (used for every view),
+#: or an object with ``disparity`` and ``measured_disparity`` (a ``DisparityMap``) or an ``(output, measured)``
+#: tuple when the output holds filled pixels (see :func:`output_views`).
+Runner = Callable[[np.ndarray, np.ndarray], Any]
 
 #: Post-processing shared by the OpenCV SGBM entries (OpenCV's sample values; speckleRange is in
 #: pixels, OpenCV multiplies it by 16 internally).
@@ -92,6 +100,50 @@ class Method:
         if not self.available or self.factory is None:
             raise RuntimeError(f"method {self.name!r} is not available: {self.reason}")
         return self.factory(setup)
+
+
+def output_views(out: Any, shape: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``(output, measured)`` of what a runner returned.
+
+    ``output`` is the method's disparity as a user gets it (the dense and unknown-is-bad views score it);
+    ``measured`` holds only the pixels the method measured, the rest NaN (the valid view scores it). A plain
+    array is both.
+
+    Parameters
+    ----------
+    out : (H, W) float array, ``(output, measured)`` tuple, or object with ``disparity`` and ``measured_disparity``
+    shape : (H, W), optional
+        The shape both must have (the input's).
+
+    Raises
+    ------
+    RuntimeError
+        Anything else, arrays of another shape, or a measured pixel that the output leaves unknown.
+
+    >>> import numpy as np
+    >>> out = np.array([[1.0, 2.0]], np.float32)
+    >>> output_views(out)[1] is out
+    True
+    >>> output_views((out, np.array([[1.0, np.nan]], np.float32)))[1].tolist()
+    [[1.0, nan]]
+    """
+    if isinstance(out, np.ndarray):
+        disp, measured = out, out
+    elif isinstance(out, tuple) and len(out) == 2:
+        disp, measured = out
+    elif hasattr(out, "disparity") and hasattr(out, "measured_disparity"):
+        disp, measured = out.disparity, out.measured_disparity
+    else:
+        raise RuntimeError(f"a method must return an (H, W) float array, an (output, measured) tuple or a DisparityMap, "
+                           f"got {type(out).__name__}")
+    want = tuple(shape) if shape is not None else getattr(disp, "shape", None)
+    for label, arr in (("output", disp), ("measured", measured)):
+        if not isinstance(arr, np.ndarray) or arr.shape != want or not np.issubdtype(arr.dtype, np.floating):
+            raise RuntimeError(f"the method's {label} must be a float array of shape {want}, got {type(arr).__name__} "
+                               f"of shape {getattr(arr, 'shape', None)} and dtype {getattr(arr, 'dtype', None)}")
+    if measured is not disp and (np.isfinite(measured) & ~np.isfinite(disp)).any():
+        raise RuntimeError("the method's measured disparity has values where its output is unknown")
+    return disp, measured
 
 
 def opencv_to_disparity(raw: np.ndarray, min_disparity: int) -> np.ndarray:
@@ -190,14 +242,22 @@ def opencv_methods() -> list[Method]:
     return out
 
 
-#: (name, overrides, description) of the matcher variants.
+#: (name, overrides of SGMParams(), what it is) of the matcher variants; short: every one runs on every scene.
 _MATCHER_VARIANTS: tuple[tuple[str, dict[str, Any], str], ...] = (
-    ("sc-default", {}, "stereo_classic default parameters"),
-    ("sc-sad-8", {"cost": "sad", "paths": 8}, "stereo_classic SAD cost, 8 paths"),
-    ("sc-sad-4", {"cost": "sad", "paths": 4}, "stereo_classic SAD cost, 4 paths"),
-    ("sc-census-8", {"cost": "census", "paths": 8}, "stereo_classic census cost, 8 paths"),
-    ("sc-census-4", {"cost": "census", "paths": 4}, "stereo_classic census cost, 4 paths"),
+    ("sc-default", {}, "stereo_classic SGMParams() defaults"),
+    ("sc-census-8", {"cost": "census", "paths": 8, "lr_check": None, "fill_holes": False},
+     "the previous default (before commit cfc357c)"),
+    ("sc-census-3", {"cost": "census"}, "the default with the plain census cost"),
+    ("sc-8", {"paths": 8}, "the default with 8 paths"),
+    ("sc-sad-8", {"cost": "sad", "paths": 8, "lr_check": None, "fill_holes": False},
+     "the like-for-like with OpenCV (SAD-style cost, 8 paths like MODE_HH, no fill)"),
 )
+
+
+def _settings(params: Any) -> str:
+    return (f"cost {params.cost}, {params.paths} paths, LR check "
+            f"{'off' if params.lr_check is None else f'{params.lr_check:g} px'}, "
+            f"holes {'filled' if params.fill_holes else 'left unknown'}")
 
 
 def _matcher_factory(overrides: dict[str, Any]) -> Callable[[Setup], Runner]:
@@ -209,8 +269,8 @@ def _matcher_factory(overrides: dict[str, Any]) -> Callable[[Setup], Runner]:
                               threads=setup.threads)
         matcher = sc.StereoMatcher(params)
 
-        def run(left: np.ndarray, right: np.ndarray) -> np.ndarray:
-            return matcher.compute(left, right).disparity
+        def run(left: np.ndarray, right: np.ndarray) -> Any:
+            return matcher.compute(left, right)  # a DisparityMap: output and measured pixels (output_views)
 
         return run
 
@@ -218,7 +278,7 @@ def _matcher_factory(overrides: dict[str, Any]) -> Callable[[Setup], Runner]:
 
 
 def stereo_classic_methods() -> list[Method]:
-    """This project's matcher: default, SAD and census costs, 8 and 4 paths."""
+    """This project's matcher: the default and the variants of :data:`_MATCHER_VARIANTS`."""
     import stereo_classic as sc
 
     out = []
@@ -227,7 +287,8 @@ def stereo_classic_methods() -> list[Method]:
         shown = {f.name: getattr(defaults, f.name) for f in sorted(dataclasses.fields(defaults), key=lambda f: f.name)
                  if f.name not in ("num_disparities", "min_disparity")}
         shown = {k: (v if isinstance(v, (int, float, str, bool, type(None))) else repr(v)) for k, v in shown.items()}
-        out.append(Method(name, "stereo_classic", desc, _matcher_factory(overrides), params=shown))
+        out.append(Method(name, "stereo_classic", f"{desc} ({_settings(defaults)})", _matcher_factory(overrides),
+                          params=shown))
     return out
 
 

@@ -67,8 +67,12 @@ def detector_latency(models: Sequence[Path], image: np.ndarray, *, threads: Sequ
     return {"available": True, "image_size": [int(image.shape[1]), int(image.shape[0])], "rows": rows, "how": how}
 
 
-def pipeline_fps(scene: Any, model: Path | None, *, num_disparities: int, threads: int = 2, repeat: int = 5) -> dict[str, Any]:
-    """Frames per second of ``stereo_classic.Localizer`` (matcher + detector + fusion) on one scene."""
+def pipeline_fps(scene: Any, model: Path | None, *, num_disparities: int, threads: int = 2, repeat: int = 5,
+                 concurrent: bool = False) -> dict[str, Any]:
+    """Frames per second of ``stereo_classic.Localizer`` (matcher + detector + fusion) on one scene.
+
+    ``concurrent``: the Localizer's option (the detector in a worker thread while the matcher runs).
+    """
     if scene.rig is None:
         return _unavailable(f"scene {scene.name} has no calibration")
     try:
@@ -77,7 +81,8 @@ def pipeline_fps(scene: Any, model: Path | None, *, num_disparities: int, thread
         if model is not None:
             from detectors import OnnxDetector
             detector = OnnxDetector(str(model), threads=threads)
-        loc = pipeline.Localizer(scene.rig, detector, {"num_disparities": num_disparities, "threads": threads})
+        loc = pipeline.Localizer(scene.rig, detector, {"num_disparities": num_disparities, "threads": threads},
+                                 concurrent=concurrent)
         t0 = time.perf_counter()
         first = loc(scene.left, scene.right)
         first_ms = (time.perf_counter() - t0) * 1000.0

@@ -3,13 +3,19 @@
 from __future__ import annotations
 
 import logging
-import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from benchmarks.render_accuracy import (
+    VIEW_LABELS,
+    accuracy_sections,
+    bad2_tables,
+    summary_tables,
+)
+from benchmarks.render_accuracy import slug as _slug
 from benchmarks.report import (
     Section,
     Table,
@@ -24,7 +30,7 @@ from benchmarks.report import (
     write_text_atomic,
 )
 
-__all__ = ["write_report", "summary_markdown", "REPORT_FILES"]
+__all__ = ["REPORT_FILES", "markdown_sections", "summary_markdown", "write_report"]
 
 log = logging.getLogger("benchmarks")
 
@@ -33,30 +39,11 @@ _TITLE = "stereo_classic benchmark report"
 _BASELINES = ("ocv-hh", "ocv-sgbm", "ocv-3way")
 
 
-def _slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "scene"
-
-
-def _get(d: Any, *keys: str) -> Any:
-    for k in keys:
-        if not isinstance(d, Mapping) or k not in d:
-            return None
-        d = d[k]
-    return d
-
-
 def _summary_section(report: Mapping[str, Any]) -> Section:
     """Headline numbers, all taken from the tables below (same run)."""
     sec = Section("Summary")
-    mean = report.get("accuracy_mean") or {}
     names = [m["name"] for m in report["methods"] if m["available"]]
-    if mean:
-        rows = [[n, fmt(_get(mean.get(n, {}), "full", "all", "bad2")), fmt(_get(mean.get(n, {}), "full", "valid", "bad2")),
-                 fmt(_get(mean.get(n, {}), "full", "all", "d1")), fmt(_get(mean.get(n, {}), "full", "all", "density"), 1)]
-                for n in names if n in mean]
-        n_scenes = max((v.get("scenes", 0) for v in mean.values()), default=0)
-        sec.tables.append(Table(["method", "bad-2 all %", "bad-2 valid %", "D1 all %", "density %"], rows,
-                                f"accuracy, mean over {n_scenes} scene(s) with ground truth"))
+    sec.tables += summary_tables(report)
     speed = [r for r in report["speed"] if r.get("median_ms") is not None]
     if speed:
         size_of = {r["input"]: (r["width"], r["height"], r["num_disparities"]) for r in speed}
@@ -74,6 +61,73 @@ def _summary_section(report: Mapping[str, Any]) -> Section:
         w, h, d = size_of[target]
         sec.tables.append(Table(["method", "ms (median)", "MDE/s"] + [f"x vs {b}" for b in present], rows,
                                 f"speed on {target} ({w}x{h}, {d} disparities) at {t_top} thread(s); ratio = baseline ms / method ms"))
+    scaling = report.get("scaling") or {}
+    if scaling.get("available"):
+        sec.tables.append(_scaling_table(scaling, compact=True))
+    pipe = [p for p in _pipeline_rows(report) if p.get("available")]
+    if pipe:
+        inputs = list(dict.fromkeys((p["scene"], tuple(p["size"]), p["num_disparities"]) for p in pipe))
+        rows = []
+        for scene, size, ndisp in inputs:
+            sel = {bool(p.get("concurrent")): p for p in pipe if (p["scene"], tuple(p["size"]), p["num_disparities"]) == (scene, size, ndisp)}
+            rows.append([scene, f"{size[0]}x{size[1]}x{ndisp}", fmt(sel[False]["fps"], 1) if False in sel else "n/a",
+                         fmt(sel[True]["fps"], 1) if True in sel else "n/a"])
+        sec.tables.append(Table(["pipeline input", "WxHxD", "frames/s", "frames/s, detector concurrent"], rows,
+                                f"whole pipeline (`stereo_classic.Localizer`: matcher defaults, detector {pipe[0]['model']}, "
+                                f"fusion, frame checks) at 2 threads"))
+    return sec
+
+
+def _pipeline_rows(report: Mapping[str, Any]) -> list[dict[str, Any]]:
+    pipe = report.get("pipeline")
+    if not pipe:
+        return []
+    return [pipe] if isinstance(pipe, Mapping) else list(pipe)  # a report of schema 1 held one dict
+
+
+def _scaling_table(sc: Mapping[str, Any], *, compact: bool = False) -> Table:
+    """The thread-scaling table; ``compact``: ms, speed-up and identity per method in one row per thread count."""
+    methods = list(sc["methods"])
+    by = {(r["method"], r["threads"]): r for r in sc["rows"]}
+    cap = (f"thread scaling on {sc['input']} ({sc['width']}x{sc['height']}, {sc['num_disparities']} disparities), "
+           f"{sc['cores']} usable cores; speed-up = ms at 1 thread / ms; efficiency = speed-up / min(threads, cores); "
+           f"identical = output bit-identical to 1 thread")
+    if compact:
+        head = ["threads"] + [f"{m} {k}" for m in methods for k in ("ms", "speed-up", "CPU s")]
+        head += ([f"{methods[0]} x vs {methods[-1]}"] if len(methods) > 1 else []) + ["identical to 1 thread"]
+        rows = []
+        for t in sc["threads"]:
+            cells = [str(t)]
+            for m in methods:
+                r = by.get((m, t), {})
+                cells += [fmt(r.get("median_ms"), 1), fmt(r.get("speedup")), fmt(r.get("cpu_s_per_call"), 3)]
+            if len(methods) > 1:
+                a, b = by.get((methods[0], t), {}), by.get((methods[-1], t), {})
+                cells.append(fmt(b["median_ms"] / a["median_ms"]) if a.get("median_ms") and b.get("median_ms") else "n/a")
+            cells.append(", ".join(f"{m} {'yes' if by.get((m, t), {}).get('identical') else 'NO'}" for m in methods))
+            rows.append(cells)
+        return Table(head, rows, cap)
+    head = ["method", "threads", "ms median [min-max]", "speed-up", "efficiency", "CPU s per call", "CPU vs 1 thread",
+            "identical to 1 thread", "first call ms"]
+    rows = [[r["method"], str(r["threads"]), f"{fmt(r['median_ms'], 1)} [{fmt(r['min_ms'], 1)}-{fmt(r['max_ms'], 1)}]",
+             fmt(r["speedup"]), fmt(r["efficiency"]), fmt(r["cpu_s_per_call"], 3), fmt(r.get("cpu_ratio")),
+             "yes" if r["identical"] else "NO", fmt(r.get("first_call_ms"), 0)]
+            for m in methods for r in sc["rows"] if r["method"] == m]
+    return Table(head, rows, cap)
+
+
+def _scaling_section(report: Mapping[str, Any]) -> Section:
+    sc = report.get("scaling")
+    sec = Section("Thread scaling")
+    if not sc:
+        sec.paragraphs.append("Not measured in this run.")
+    elif not sc.get("available"):
+        sec.paragraphs.append(f"Not available: {sc.get('reason')}")
+    else:
+        sec.paragraphs.append(f"The matcher's defaults (`sc-default`) and OpenCV MODE_SGBM_3WAY (`ocv-3way`) at 1..cores threads "
+                              f"and at 2, 4 and 8 even beyond the cores (oversubscription), on {sc.get('note', sc['input'])}. "
+                              f"How: {sc['how']}.")
+        sec.tables.append(_scaling_table(sc))
     return sec
 
 
@@ -96,12 +150,7 @@ def _machine_section(report: Mapping[str, Any]) -> Section:
         f"(numba JIT compile or cache load, buffer allocation) and excluded; median with min and max. "
         f"Threads: {cfg['threads']} (cv2.setNumThreads, the matcher's `threads`, onnxruntime intra-op threads)."
     )
-    sec.paragraphs.append(
-        "Two views of every accuracy number: **all** counts every pixel with ground truth and a pixel the method left "
-        "unknown as bad; **valid** counts only pixels with an estimate. EPE and RMS exist only in the valid view; density "
-        "is the share of ground-truth pixels with an estimate. Regions: full image, non-occluded (where a mask exists), "
-        "and the left border band x < num_disparities. Pixels without ground truth never count."
-    )
+    sec.paragraphs.append("Accuracy has three views (dense, ukb, valid), explained at the top of the Accuracy section.")
     for note in report.get("notes", []):
         sec.paragraphs.append(f"Note: {note}")
     return sec
@@ -110,64 +159,6 @@ def _machine_section(report: Mapping[str, Any]) -> Section:
 def _methods_section(report: Mapping[str, Any]) -> Section:
     rows = [[m["name"], m["family"], m["description"], "yes" if m["available"] else f"not available: {m['reason']}"] for m in report["methods"]]
     return Section("Methods", tables=[Table(["method", "family", "what", "available"], rows)])
-
-
-def _acc_row(name: str, acc: Mapping[str, Any]) -> list[str]:
-    return [
-        name,
-        fmt(_get(acc, "full", "all", "bad2")), fmt(_get(acc, "full", "valid", "bad2")),
-        fmt(_get(acc, "full", "all", "bad0.5")), fmt(_get(acc, "full", "all", "bad1")), fmt(_get(acc, "full", "all", "bad4")),
-        fmt(_get(acc, "full", "all", "d1")), fmt(_get(acc, "full", "valid", "d1")),
-        fmt(_get(acc, "full", "valid", "epe")), fmt(_get(acc, "full", "valid", "rms")), fmt(_get(acc, "full", "all", "density"), 1),
-        fmt(_get(acc, "nonocc", "all", "bad2")), fmt(_get(acc, "nonocc", "valid", "bad2")),
-        fmt(_get(acc, "border", "all", "bad2")), fmt(_get(acc, "border", "valid", "bad2")),
-    ]
-
-
-_ACC_HEADERS = ["method", "bad-2 all", "bad-2 valid", "bad-0.5 all", "bad-1 all", "bad-4 all", "D1 all", "D1 valid",
-                "EPE valid [px]", "RMS valid [px]", "density %", "nonocc bad-2 all", "nonocc bad-2 valid",
-                "border bad-2 all", "border bad-2 valid"]
-
-
-def _accuracy_sections(report: Mapping[str, Any], figures: dict[str, str]) -> list[Section]:
-    acc = report["accuracy"]
-    if not acc:
-        return [Section("Accuracy", paragraphs=["No scene with ground-truth disparity was evaluated."])]
-    names = [m["name"] for m in report["methods"]]
-    scenes = list(acc)
-    mean = report["accuracy_mean"]
-    sec = Section(f"Accuracy, mean over {len(scenes)} scene(s) with ground truth")
-    rows = []
-    for n in names:
-        if n in mean:
-            rows.append(_acc_row(n, mean[n]) + [str(mean[n].get("scenes"))])
-        else:
-            rows.append([n] + ["n/a"] * (len(_ACC_HEADERS) - 1) + ["0"])
-    sec.tables.append(Table(_ACC_HEADERS + ["scenes"], rows, "percentages unless marked; each scene weighs the same"))
-    for view, label in (("all", "unknown counted as bad"), ("valid", "valid pixels only")):
-        head = ["method"] + scenes + ["mean"]
-        trows = []
-        for n in names:
-            cells = [fmt(_get(acc[s].get(n, {}), "full", view, "bad2")) for s in scenes]
-            trows.append([n] + cells + [fmt(_get(mean.get(n, {}), "full", view, "bad2"))])
-        sec.tables.append(Table(head, trows, f"bad-2 % per scene, view '{view}' ({label})"))
-    if "bad2" in figures:
-        sec.figures.append((figures["bad2"], "bad-2 per scene and method, both views"))
-    out = [sec]
-    for s in scenes:
-        info = next((x for x in report["scenes"] if x["name"] == s), {})
-        ssec = Section(f"Scene {s}", level=3)
-        ssec.paragraphs.append(f"{info.get('size', ['?', '?'])[0]}x{info.get('size', ['?', '?'])[1]}, {info.get('num_disparities')} disparities, "
-                               f"non-occluded mask: {'yes' if info.get('has_nonocc') else 'no'}; source {info.get('source')}.")
-        rows = []
-        for n in names:
-            entry = acc[s].get(n, {})
-            rows.append([n, f"failed: {entry['error']}"] + [""] * (len(_ACC_HEADERS) - 2) if "error" in entry else _acc_row(n, entry))
-        ssec.tables.append(Table(_ACC_HEADERS, rows))
-        if f"disp:{s}" in figures:
-            ssec.figures.append((figures[f"disp:{s}"], f"{s}: each method's disparity (same colour scale) and |error| (0-4 px)"))
-        out.append(ssec)
-    return out
 
 
 def _speed_section(report: Mapping[str, Any], figures: dict[str, str]) -> Section:
@@ -264,21 +255,30 @@ def _objects_sections(report: Mapping[str, Any]) -> list[Section]:
         sec.tables.append(Table(["model", "threads", "family / input", "preprocess", "inference", "postprocess", "total", "total p90"], trows))
     out.append(sec)
 
-    pipe = report.get("pipeline")
+    pipe = _pipeline_rows(report)
     sec = Section("Whole pipeline")
     if not pipe:
         sec.paragraphs.append("Not measured in this run.")
-    elif not pipe.get("available"):
-        sec.paragraphs.append(f"Not available: {pipe.get('reason')}")
     else:
         sec.paragraphs.append(
-            f"`stereo_classic.Localizer` (matcher default parameters, {pipe['num_disparities']} disparities, detector {pipe['model']}, "
-            f"fusion) on {pipe['scene']} {pipe['size'][0]}x{pipe['size'][1]} at {pipe['threads']} threads: "
-            f"**{pipe['fps']:.2f} frames/s** (median {pipe['median_ms']:.1f} ms [{pipe['min_ms']:.1f}-{pipe['max_ms']:.1f}], first call "
-            f"{pipe['first_call_ms']:.0f} ms excluded); {pipe.get('objects')} objects.")
-        st = pipe.get("stages_median_ms") or {}
-        if st:
-            sec.tables.append(Table(["stage", "median ms"], [[k, fmt(v, 1)] for k, v in st.items()]))
+            "`stereo_classic.Localizer` as `run` uses it (matcher default parameters, frame checks on, fusion), the "
+            "default detector, 2 threads: frames/s = 1000 / median ms of repeated calls on the same pair, first call "
+            "excluded. `concurrent`: the Localizer runs the detector in a worker thread while the matcher runs.")
+        trows = []
+        stage_names: list[str] = []
+        for p in pipe:
+            stage_names += [k for k in (p.get("stages_median_ms") or {}) if k not in stage_names]
+        for p in pipe:
+            if not p.get("available"):
+                trows.append([str(p.get("input", "?")), "", "", f"not available: {p.get('reason')}"] + [""] * (3 + len(stage_names)))
+                continue
+            st = p.get("stages_median_ms") or {}
+            trows.append([p.get("input", p["scene"]), f"{p['size'][0]}x{p['size'][1]}x{p['num_disparities']}",
+                          "yes" if p.get("concurrent") else "no", p["model"] or "none", f"**{p['fps']:.2f}**",
+                          f"{p['median_ms']:.1f} [{p['min_ms']:.1f}-{p['max_ms']:.1f}]", str(p.get("objects"))]
+                         + [fmt(st.get(k), 1) for k in stage_names])
+        sec.tables.append(Table(["input", "WxHxD", "concurrent", "detector", "frames/s", "ms median [min-max]", "objects"]
+                                + [f"{k} ms" for k in stage_names], trows, "stage columns: median ms per call"))
     out.append(sec)
 
     dist = report.get("distance") or {}
@@ -316,6 +316,50 @@ def _objects_sections(report: Mapping[str, Any]) -> list[Section]:
     return out
 
 
+def markdown_sections(title: str, text: str, *, level: int = 2) -> list[Section]:
+    """Sections from Markdown made elsewhere: pipe tables become tables, other non-empty lines paragraphs.
+
+    Lines after a table go into a following section ("<title>: notes", one level down), so the order holds.
+    """
+    sec = Section(title, level=level)
+    out = [sec]
+    lines = text.splitlines()
+    i = 0
+    while i < len(lines):
+        line = lines[i].strip()
+        if line.startswith("|"):
+            block = []
+            while i < len(lines) and lines[i].strip().startswith("|"):
+                block.append([c.strip() for c in lines[i].strip().strip("|").split("|")])
+                i += 1
+            body = [r for r in block[1:] if not all(set(c) <= set("-: ") for c in r)]
+            sec.tables.append(Table(block[0], body))
+            continue
+        if line:
+            if sec.tables:
+                sec = Section(f"{title}: notes", level=level + 1)
+                out.append(sec)
+            sec.paragraphs.append(line)
+        i += 1
+    return out
+
+
+def _kitti_objects_sections(report: Mapping[str, Any]) -> list[Section]:
+    res = report.get("kitti_objects")
+    title = "Per-object distance against KITTI labels"
+    if not res:
+        return [Section(title, paragraphs=["Not measured in this run."])]
+    from benchmarks.kitti_objects import render_markdown as kitti_markdown
+
+    out = markdown_sections(title, kitti_markdown(res))
+    if res.get("available"):
+        out[0].paragraphs.insert(0, "`benchmarks.kitti_objects` (also `python -m benchmarks.kitti_objects`), 2 threads: for each "
+                                 "labelled car the reference is the LiDAR points inside its labelled 3D box; `run` = the "
+                                 "Localizer as `run` builds it, 3WAY + fusion = OpenCV MODE_SGBM_3WAY with the same fusion, "
+                                 "DepthAI median = median of the measured disparity in the half-size box. Errors signed, %.")
+    return out
+
+
 def _errors_section(report: Mapping[str, Any]) -> Section | None:
     errs = report.get("errors") or {}
     if not errs:
@@ -340,17 +384,13 @@ def _make_figures(report: Mapping[str, Any], arrays: Mapping[str, Any], out_dir:
             figures[f"disp:{name}"] = fname
         except Exception as exc:  # noqa: BLE001 - a figure must not lose the numbers
             log.warning("figure for %s failed: %s", name, exc)
-    acc = report["accuracy"]
-    if acc:
-        names = [m["name"] for m in report["methods"] if m["available"]]
-        table = {view: {s: {n: _get(acc[s].get(n, {}), "full", view, "bad2") for n in names} for s in acc} for view in ("all", "valid")}
-        for view in table:
-            table[view]["mean"] = {n: _get(report["accuracy_mean"].get(n, {}), "full", view, "bad2") for n in names}
+    for family, table in bad2_tables(report).items():
+        fname = f"bad2_{_slug(family)}.png"
         try:
-            figure_bad2(out_dir / "bad2.png", table)
-            figures["bad2"] = "bad2.png"
+            figure_bad2(out_dir / fname, table, labels=dict(VIEW_LABELS), title=family)
+            figures[f"bad2:{family}"] = fname
         except Exception as exc:  # noqa: BLE001
-            log.warning("bad-2 figure failed: %s", exc)
+            log.warning("bad-2 figure of %s failed: %s", family, exc)
     rows = [r for r in report["speed"] if r.get("median_ms") is not None]
     if rows:
         by_size: dict[str, int] = {}
@@ -381,10 +421,12 @@ def write_report(report: dict[str, Any], arrays: Mapping[str, Any], out_dir: Pat
         report.setdefault("notes", []).append("figures switched off (--no-figures)")
     report["figures"] = figs
     sections = [_summary_section(report), _machine_section(report), _methods_section(report)]
-    sections += _accuracy_sections(report, figs)
+    sections += accuracy_sections(report, figs)
     sections.append(_speed_section(report, figs))
+    sections.append(_scaling_section(report))
     sections.append(_memory_section(report))
     sections += _objects_sections(report)
+    sections += _kitti_objects_sections(report)
     err = _errors_section(report)
     if err is not None:
         sections.append(err)

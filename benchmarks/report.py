@@ -290,22 +290,31 @@ def figure_disparities(
     plt.close(fig)
 
 
-def figure_bad2(path: Path, table: Mapping[str, Mapping[str, Mapping[str, float | None]]], *, dpi: int = 90) -> None:
-    """bad-2 per scene, one bar per method; ``table[view][scene][method]`` for views "all" and "valid"."""
+def figure_bad2(path: Path, table: Mapping[str, Mapping[str, Mapping[str, float | None]]], *,
+                labels: Mapping[str, str] | None = None, title: str = "", dpi: int = 90) -> None:
+    """bad-2 per scene, one bar per method, one panel per view: ``table[view][scene][method]``.
+
+    Views are drawn in the order "dense", "all", "valid" (those present); ``labels`` names them in the titles
+    (e.g. {"all": "ukb"}); ``title`` prefixes every panel title (a dataset family).
+    """
     import matplotlib
 
     matplotlib.use("Agg", force=True)
     import matplotlib.pyplot as plt
 
-    views = [v for v in ("all", "valid") if v in table]
-    scenes = list(next(iter(table.values())).keys()) if table else []
+    what = {"dense": "unknown filled as the KITTI devkit does", "all": "unknown counted as bad", "valid": "valid pixels only"}
+    labels = dict(labels or {})
+    views = [v for v in ("dense", "all", "valid") if v in table]
+    scenes = list(table[views[0]].keys()) if views else []
     methods: list[str] = []
     for view in views:
         for scene in scenes:
             methods += [m for m in table[view][scene] if m not in methods]
-    fig, axes = plt.subplots(len(views), 1, figsize=(max(8.0, 1.1 * len(scenes) * max(1, len(methods)) * 0.18 + 3), 3.6 * len(views)), squeeze=False)
+    fig, axes = plt.subplots(len(views), 1, figsize=(max(8.0, 1.1 * len(scenes) * max(1, len(methods)) * 0.18 + 3),
+                                                     3.2 * len(views) + 0.8), squeeze=False)
     cmap = plt.get_cmap("tab20")
     width = 0.8 / max(1, len(methods))
+    top = max([v for view in views for sc in scenes for v in table[view][sc].values() if v is not None] or [1.0])
     for ax, view in zip(axes[:, 0], views):
         for i, method in enumerate(methods):
             values = [table[view][s].get(method) for s in scenes]
@@ -314,10 +323,13 @@ def figure_bad2(path: Path, table: Mapping[str, Mapping[str, Mapping[str, float 
         ax.set_xticks(range(len(scenes)))
         ax.set_xticklabels(scenes, fontsize=8)
         ax.set_ylabel("bad-2 [%]")
-        ax.set_title(f"bad-2 per scene, view '{view}'" + (" (unknown counted as bad)" if view == "all" else " (valid pixels only)"), fontsize=10)
+        ax.set_ylim(0, top * 1.05)
+        name = labels.get(view, view)
+        ax.set_title(f"{title + ': ' if title else ''}bad-2 per scene, view {name} ({what.get(view, view)})", fontsize=10)
         ax.grid(axis="y", alpha=0.3)
-    axes[0][0].legend(fontsize=7, ncol=min(6, max(1, len(methods))), loc="upper left", bbox_to_anchor=(0, -0.12 if len(views) == 1 else 1.35))
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    handles, names = axes[0][0].get_legend_handles_labels()
+    fig.legend(handles, names, fontsize=7, ncol=min(8, max(1, len(methods))), loc="lower center")
     _save(fig, path, dpi)
     plt.close(fig)
 

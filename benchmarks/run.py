@@ -22,11 +22,18 @@ import cv2
 import numpy as np
 
 from benchmarks import metrics as _metrics
-from benchmarks.methods import Method, Setup, default_methods
-from benchmarks.scenes import BenchScene, SpeedInput, disparity_range, load_scenes, speed_inputs
+from benchmarks.methods import Method, Setup, default_methods, output_views
+from benchmarks.scenes import (
+    FAMILIES,
+    BenchScene,
+    SpeedInput,
+    disparity_range,
+    load_scenes,
+    speed_inputs,
+)
 from benchmarks.timing import summarize, time_interleaved
 
-__all__ = ["BenchConfig", "run_benchmark", "machine_info", "DEFAULT_SIZES"]
+__all__ = ["DEFAULT_SIZES", "BenchConfig", "family_means", "machine_info", "method_metrics", "run_benchmark"]
 
 log = logging.getLogger("benchmarks")
 
@@ -54,6 +61,7 @@ class BenchConfig:
     figures: bool = True
     quick: bool = False
     progress: bool | None = None
+    scaling: bool = True
 
     def __post_init__(self) -> None:
         if isinstance(self.repeat, bool) or not isinstance(self.repeat, int) or self.repeat < 1:
@@ -150,15 +158,50 @@ def _first_calls(methods: Sequence[Method], setup: Setup, left: np.ndarray, righ
             t0 = time.perf_counter()
             out = runner(left, right)
             first[m.name] = (time.perf_counter() - t0) * 1000.0
-            if not isinstance(out, np.ndarray) or out.shape != left.shape[:2]:
-                raise RuntimeError(f"returned {type(out).__name__} of shape {getattr(out, 'shape', None)}, expected {left.shape[:2]}")
-            outputs[m.name] = out
+            outputs[m.name] = output_views(out, left.shape[:2])  # (output, measured)
             runners[m.name] = (lambda r=runner: r(left, right))
         except Exception as exc:  # noqa: BLE001 - one failing method must not stop the others; reported
             errors[m.name] = f"{type(exc).__name__}: {exc}"
             log.warning("%s failed on %s: %s", m.name, label, errors[m.name])
         progress.step(f"{label} {m.name}")
     return runners, first, outputs, errors
+
+
+def method_metrics(output: np.ndarray, measured: np.ndarray, scene: BenchScene, ndisp: int) -> dict[str, Any]:
+    """:func:`benchmarks.metrics.scene_metrics` of one method's result on one scene.
+
+    The dense and unknown-is-bad ("all") views score ``output`` (what a user gets, filled pixels included);
+    the valid view scores ``measured`` (only what was measured: a filled pixel is not an estimate), so its
+    density is the measured density. For a method without filled pixels the two are the same array.
+    """
+    kw = {"nonocc_mask": scene.nonocc_mask, "max_disparity": ndisp}
+    result = _metrics.scene_metrics(output, scene.gt_disparity, **kw)
+    if measured is not output:
+        on_measured = _metrics.scene_metrics(measured, scene.gt_disparity, **kw)
+        for region, views in result.items():
+            views["valid"] = on_measured[region]["valid"]
+    return result
+
+
+def family_means(accuracy: dict[str, dict[str, Any]], families: dict[str, str], names: Sequence[str]) -> dict[str, dict]:
+    """Per family (:data:`benchmarks.scenes.FAMILIES` order) and method, the mean metrics over that family's scenes.
+
+    ``accuracy[scene][method]`` as in the report (an entry with "error" is left out); ``families[scene]`` the
+    scene's family. Each mean carries ``"scenes"``, the number of scenes averaged.
+    """
+    out: dict[str, dict] = {}
+    for family in FAMILIES:
+        scenes = [s for s in accuracy if families.get(s) == family]
+        if not scenes:
+            continue
+        per_method = {}
+        for n in names:
+            runs = [accuracy[s][n] for s in scenes if n in accuracy[s] and "error" not in accuracy[s][n]]
+            if runs:
+                per_method[n] = _metrics.mean_metrics(runs)
+                per_method[n]["scenes"] = len(runs)
+        out[family] = per_method
+    return out
 
 
 def _speed_rows(name: str, kind: str, note: str, size: tuple[int, int], ndisp: int, setup: Setup,
@@ -210,7 +253,7 @@ def run_benchmark(config: BenchConfig, *, argv: Sequence[str] | None = None) -> 
     if config.quick:
         notes.append("--quick: real scenes only (no synthetic speed sizes), one thread count, memory of all methods in one child process.")
     report: dict[str, Any] = {
-        "schema": "stereo_classic.benchmarks/1",
+        "schema": "stereo_classic.benchmarks/2",
         "command": ["python", "-m", "benchmarks", *(argv or [])],
         "machine": machine_info(),
         "config": {
@@ -227,6 +270,7 @@ def run_benchmark(config: BenchConfig, *, argv: Sequence[str] | None = None) -> 
         "accuracy": {},
         "accuracy_mean": {},
         "errors": {},
+        "scaling": None,
         "speed": [],
         "memory": [],
     }
@@ -238,11 +282,11 @@ def run_benchmark(config: BenchConfig, *, argv: Sequence[str] | None = None) -> 
         for scene in scenes:
             ndisp = disparity_range(scene)
             report["scenes"].append({
-                "name": scene.name, "size": list(scene.size), "num_disparities": ndisp,
+                "name": scene.name, "family": scene.family, "size": list(scene.size), "num_disparities": ndisp,
                 "has_gt": scene.gt_disparity is not None, "has_nonocc": scene.nonocc_mask is not None,
                 "has_lidar": scene.gt_depth is not None, "has_rig": scene.rig is not None, "source": scene.source,
             })
-            outputs: dict[str, np.ndarray] = {}
+            outputs: dict[str, tuple[np.ndarray, np.ndarray]] = {}
             for t in threads:
                 setup = Setup(num_disparities=ndisp, min_disparity=0, block_size=config.block_size, threads=t)
                 log.info("scene %s (%dx%d, %d disparities), %d thread(s)", scene.name, *scene.size, ndisp, t)
@@ -253,13 +297,13 @@ def run_benchmark(config: BenchConfig, *, argv: Sequence[str] | None = None) -> 
                     outputs = outs
                     if errs:
                         report["errors"][scene.name] = errs
-            arrays["scenes"][scene.name] = {"scene": scene, "outputs": outputs, "ndisp": ndisp}
+            arrays["scenes"][scene.name] = {"scene": scene, "outputs": {n: o for n, (o, _) in outputs.items()},
+                                            "measured": {n: v for n, (_, v) in outputs.items()}, "ndisp": ndisp}
             if scene.gt_disparity is not None:
                 per_method = {}
                 for m in methods:
                     if m.name in outputs:
-                        per_method[m.name] = _metrics.scene_metrics(outputs[m.name], scene.gt_disparity,
-                                                                    nonocc_mask=scene.nonocc_mask, max_disparity=ndisp)
+                        per_method[m.name] = method_metrics(*outputs[m.name], scene, ndisp)
                     else:
                         per_method[m.name] = {"error": report["errors"].get(scene.name, {}).get(m.name, m.reason or "not available")}
                 report["accuracy"][scene.name] = per_method
@@ -275,19 +319,43 @@ def run_benchmark(config: BenchConfig, *, argv: Sequence[str] | None = None) -> 
         progress.close()
         cv2.setNumThreads(-1)
 
-    # accuracy averaged over scenes with ground truth (only scenes where the method ran)
-    for m in methods:
-        runs = [report["accuracy"][s][m.name] for s in report["accuracy"] if "error" not in report["accuracy"][s][m.name]]
-        if runs:
-            mean = _metrics.mean_metrics(runs)
-            mean["scenes"] = len(runs)
-            report["accuracy_mean"][m.name] = mean
+    # accuracy averaged per dataset family over its scenes with ground truth (only scenes where the method ran)
+    report["accuracy_mean"] = family_means(report["accuracy"], {s["name"]: s["family"] for s in report["scenes"]},
+                                           [m.name for m in methods])
+    if config.scaling:
+        report["scaling"] = _scaling(config, scenes, extra_inputs, progress_enabled=config.progress)
 
     if config.memory and available:
         report["memory"] = _memory(config, scenes, extra_inputs, available, onnx_specs, max(threads))
     if config.objects:
         report.update(_objects(config, scenes, arrays, threads))
     return report, arrays
+
+
+def _scaling(config: BenchConfig, scenes: Sequence[BenchScene], extra: Sequence[SpeedInput], *,
+             progress_enabled: bool | None) -> dict[str, Any]:
+    """The thread-scaling table (:func:`benchmarks.sgm_speed.thread_scaling`) on the KITTI pair, 128 disparities."""
+    from benchmarks.sgm_speed import scaling_threads, thread_scaling
+
+    target = next(((s.name, s.left, s.right, f"{s.name} ({s.source})") for s in scenes if s.size == (1242, 375)), None)
+    if target is None:
+        target = next(((i.name, i.left, i.right, i.note) for i in extra if i.size == (1242, 375)), None)
+    if target is None:
+        return {"available": False, "reason": "no 1242x375 input (the KITTI pair, or --sizes 1242x375x128 without --quick)"}
+    name, left, right, note = target
+    counts = (1, 2) if config.quick else scaling_threads()
+    log.info("thread scaling on %s: threads %s", name, ", ".join(map(str, counts)))
+    progress = _Progress(len(counts) * 2 * (config.repeat + 1), progress_enabled)
+    try:
+        result = thread_scaling(left, right, num_disparities=128, block_size=config.block_size, threads=counts,
+                                repeat=config.repeat, name=name, on_step=progress.step)
+    except Exception as exc:  # noqa: BLE001 - reported in its section, the rest of the report stands
+        log.warning("thread scaling failed: %s", exc)
+        return {"available": False, "reason": f"{type(exc).__name__}: {exc}"}
+    finally:
+        progress.close()
+    result["note"] = note + (" (--quick: 1 and 2 threads only)" if config.quick else "")
+    return result
 
 
 def _memory(config: BenchConfig, scenes: Sequence[BenchScene], extra: Sequence[SpeedInput], methods: Sequence[Method],
@@ -321,31 +389,91 @@ def _memory(config: BenchConfig, scenes: Sequence[BenchScene], extra: Sequence[S
     return rows
 
 
+def _pipeline_inputs(config: BenchConfig, kitti: BenchScene | None) -> list[tuple[BenchScene, int, str]]:
+    """(scene, num_disparities, note) of the pipeline's frame rate: the KITTI pair at 128 and a 640x480 pair at 64."""
+    out: list[tuple[BenchScene, int, str]] = []
+    if kitti is not None:
+        out.append((kitti, 128, "the KITTI pair"))
+    oakd = Path(config.data_dir) / "oakd" if config.data_dir is not None else None
+    small = None
+    if oakd is not None and oakd.is_dir():
+        try:
+            from stereo_classic.datasets import iter_oakd
+
+            found = [BenchScene.from_scene(sc, source=str(oakd)) for sc in iter_oakd(oakd)]
+            small = next((sc for sc in found if sc.name == "selfie"), found[0] if found else None)
+        except Exception as exc:  # noqa: BLE001 - reported as a missing row, the rest stands
+            log.warning("OAK-D scenes not loaded for the pipeline: %s", exc)
+    if small is not None:
+        out.append((small, 64, f"OAK-D scene {small.name}"))
+    else:
+        from benchmarks.scenes import demo_scene
+
+        demo = demo_scene()
+        factor = 640 / demo.size[0]
+        size = (640, round(demo.size[1] * factor))
+        small = BenchScene(f"{demo.name} x{factor:.3f}", cv2.resize(demo.left, size, interpolation=cv2.INTER_AREA),
+                           cv2.resize(demo.right, size, interpolation=cv2.INTER_AREA), rig=demo.rig.scaled(factor),
+                           source=demo.source)
+        out.append((small, 64, f"the demo scene resized to {size[0]}x{size[1]} (no OAK-D scenes)"))
+    return out
+
+
+def _default_model(config: BenchConfig, models: Sequence[Path]) -> Path | None:
+    """``yolox_nano`` (run's default detector) from ``--models``, else ``detectors.resolve_model()`` without download."""
+    found = next((p for p in models if p.stem == "yolox_nano"), None)
+    if found is not None or config.models_dir is not None:
+        return found
+    try:
+        from detectors import resolve_model
+
+        return Path(resolve_model(download=False))
+    except Exception:  # noqa: BLE001 - no default model: the sections say not available
+        return None
+
+
 def _objects(config: BenchConfig, scenes: Sequence[BenchScene], arrays: dict, threads: Sequence[int]) -> dict[str, Any]:
     from benchmarks import objects
 
     out: dict[str, Any] = {}
     models = objects.find_detector_models(config.models_dir)
-    default_model = next((p for p in models if "yolox_nano" in p.name), models[0] if models else None)
-    kitti = next((s for s in scenes if s.gt_depth is not None and s.rig is not None), None)
+    default_model = _default_model(config, models)
+    kitti = next((s for s in scenes if "kitti" in f"{s.name} {s.source}".lower() and s.rig is not None), None)
     moto = next((s for s in scenes if "motorcycle" in s.name.lower() and s.rig is not None), None)
     image = (kitti or moto or scenes[0]).left
     log.info("detector latency (%d model(s))", len(models))
     out["detectors"] = objects.detector_latency(models, image, threads=threads, repeat=config.repeat)
-    pipe_scene = kitti or moto
-    if pipe_scene is None:
-        out["pipeline"] = {"available": False, "reason": "no scene with calibration loaded (the KITTI pair or Motorcycle)"}
-    else:
-        log.info("whole pipeline on %s", pipe_scene.name)
-        out["pipeline"] = objects.pipeline_fps(pipe_scene, default_model, num_disparities=disparity_range(pipe_scene),
-                                               threads=max(threads), repeat=config.repeat)
+    out["pipeline"] = []
+    if default_model is None:  # the frame rate is the pipeline's with its default detector, or not measured
+        out["pipeline"].append({"available": False, "input": "every input",
+                                "reason": "no yolox_nano model (give --models DIR or set STEREO_CLASSIC_MODELS)"})
+    for scene, ndisp, note in _pipeline_inputs(config, kitti) if default_model is not None else ():
+        for concurrent in (False, True):
+            log.info("whole pipeline on %s (%d disparities, 2 threads, concurrent=%s)", scene.name, ndisp, concurrent)
+            row = objects.pipeline_fps(scene, default_model, num_disparities=ndisp, threads=2, repeat=config.repeat,
+                                       concurrent=concurrent)
+            row.update({"input": note, "concurrent": concurrent})
+            out["pipeline"].append(row)
     out["distance"] = {}
     for scene in (kitti, moto):
         if scene is None:
             continue
         log.info("object distances on %s", scene.name)
-        outputs = arrays["scenes"].get(scene.name, {}).get("outputs", {})
+        item = arrays["scenes"].get(scene.name, {})
+        # fusion reads measured pixels only (as localize does with a DisparityMap): filled values are not measurements
+        outputs = {**item.get("outputs", {}), **item.get("measured", {})}
         out["distance"][scene.name] = objects.distance_errors(scene, default_model, outputs)
     if not out["distance"]:
         out["distance"]["none"] = {"available": False, "reason": "neither the KITTI pair nor Motorcycle with calibration was loaded"}
+    if kitti is None:
+        out["kitti_objects"] = {"available": False, "reason": "the KITTI pair (kitti_object_pair) was not loaded"}
+    else:
+        from benchmarks.kitti_objects import kitti_object_benchmark
+
+        log.info("per-object distance against the KITTI labels")
+        try:
+            out["kitti_objects"] = kitti_object_benchmark(Path(kitti.source), threads=2)
+        except Exception as exc:  # noqa: BLE001 - reported in its section
+            log.warning("KITTI object benchmark failed: %s", exc)
+            out["kitti_objects"] = {"available": False, "reason": f"{type(exc).__name__}: {exc}"}
     return out

@@ -19,19 +19,59 @@ import cv2
 import numpy as np
 
 __all__ = [
+    "FAMILIES",
     "BenchScene",
     "SpeedInput",
     "default_data_dir",
-    "load_scenes",
     "demo_scene",
     "disparity_range",
-    "speed_inputs",
+    "load_scenes",
     "parse_size",
+    "scene_family",
+    "short_name",
+    "speed_inputs",
 ]
 
 log = logging.getLogger("benchmarks")
 
 REPO = Path(__file__).resolve().parents[1]
+
+#: Dataset families, in report order: results are averaged per family, never across them.
+FAMILIES: tuple[str, ...] = ("Middlebury-style", "driving", "indoor", "other")
+#: Folder-name prefixes (lower case) of each family; the folder nearest the scene decides.
+_FAMILY_KEYS: tuple[tuple[str, str], ...] = (
+    ("drivingstereo", "driving"), ("kitti", "driving"),
+    ("middlebury", "Middlebury-style"), ("adirondack", "Middlebury-style"), ("motorcycle", "Middlebury-style"),
+    ("built-in demo", "Middlebury-style"), ("oakd", "indoor"),
+)
+
+
+def scene_family(name: str, source: str = "") -> str:
+    """The dataset family of a scene from its source path (nearest folder first), else its name.
+
+    >>> scene_family("Adirondack", "/data/adirondackQ"), scene_family("x", "/data/drivingstereo")
+    ('Middlebury-style', 'driving')
+    >>> scene_family("Motorcycle", "built-in demo (skimage.data.stereo_motorcycle)"), scene_family("a", "/tmp/a")
+    ('Middlebury-style', 'other')
+    """
+    parts = [p.lower() for p in reversed(Path(source).parts)] if source and not source.startswith("built-in") else []
+    for part in parts + [source.lower(), name.lower()]:
+        for key, family in _FAMILY_KEYS:
+            if part.startswith(key):
+                return family
+    return "other"
+
+
+def short_name(name: str) -> str:
+    """A scene name short enough for a table column: a DrivingStereo ``<sequence>_<frame>`` name keeps its frame time.
+
+    >>> short_name("2018-07-09-16-11-56_2018-07-09-16-11-57-101"), short_name("teddy")
+    ('16-11-57-101', 'teddy')
+    """
+    seq, sep, frame = name.partition("_")
+    if sep and len(frame) > 11 and frame[:10] == seq[:10] and frame[4:5] == "-":
+        return frame[11:]
+    return name
 
 
 @dataclass
@@ -50,6 +90,8 @@ class BenchScene:
     gt_depth : (H, W) float32 metres, NaN unknown (sparse LiDAR), or None
     source : str
         Where it came from (a path, or "built-in demo").
+    family : str
+        One of :data:`FAMILIES`; empty: derived from ``source`` and ``name`` (:func:`scene_family`).
     """
 
     name: str
@@ -61,6 +103,13 @@ class BenchScene:
     rig: Any = None
     gt_depth: np.ndarray | None = None
     source: str = ""
+    family: str = ""
+
+    def __post_init__(self) -> None:
+        if not self.family:
+            self.family = scene_family(self.name, self.source)
+        if self.family not in FAMILIES:
+            raise ValueError(f"`family` must be one of {FAMILIES}, got {self.family!r}")
 
     @property
     def size(self) -> tuple[int, int]:

@@ -9,11 +9,17 @@ order (so drift of a shared machine hits all alike), the first call apart (numba
 load), and prints median/min ms, M disparity-estimates/s, ratios to each OpenCV mode, the kernel's
 per-stage ms and the peak memory it allocated (tracemalloc, numpy buffers) against 3 x W x H x D.
 Both sides use 2 threads, block 5 (OpenCV P1 8*25, P2 32*25) and a 1 px LR check.
+
+    python -m benchmarks.sgm_speed --scaling [--repeat 5]
+
+prints the thread-scaling table instead (:func:`thread_scaling`: the matcher's defaults and OpenCV
+MODE_SGBM_3WAY at 1..cores threads, plus 2, 4 and 8; the same function makes the report's table).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import time
@@ -23,7 +29,20 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-__all__ = ["load_kitti_grey", "opencv_runner", "sgm_runner", "run", "main"]
+__all__ = [
+    "SCALING_METHODS",
+    "load_kitti_grey",
+    "main",
+    "opencv_runner",
+    "run",
+    "scaling_threads",
+    "sgm_runner",
+    "thread_scaling",
+    "usable_cores",
+]
+
+#: Methods of the thread-scaling table (names of ``benchmarks.methods``).
+SCALING_METHODS: tuple[str, ...] = ("sc-default", "ocv-3way")
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -134,18 +153,141 @@ def run(data: Path, *, repeat: int = 15, num_disparities: int = 128, threads: in
     return times
 
 
+def usable_cores() -> int:
+    """CPUs this process may run on (``os.sched_getaffinity``), at least 1."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+def scaling_threads(cores: int | None = None) -> tuple[int, ...]:
+    """Thread counts of the scaling table: 1..cores, and 2, 4 and 8 even beyond the cores (oversubscription shows).
+
+    >>> scaling_threads(2), scaling_threads(6)
+    ((1, 2, 4, 8), (1, 2, 3, 4, 5, 6, 8))
+    """
+    cores = usable_cores() if cores is None else int(cores)
+    return tuple(sorted(set(range(1, max(1, cores) + 1)) | {1, 2, 4, 8}))
+
+
+def thread_scaling(left: np.ndarray, right: np.ndarray, *, num_disparities: int = 128, block_size: int = 5,
+                   threads: tuple[int, ...] | None = None, repeat: int = 5, methods: tuple[str, ...] = SCALING_METHODS,
+                   name: str = "", pause_s: float = 0.02, on_step=None) -> dict:
+    """Time each method at each thread count on one pair: ms, speed-up, efficiency, CPU s per call, same output.
+
+    Per thread count, the methods' first calls are timed apart (compile, allocation) and their outputs kept;
+    then ``repeat`` calls per method run interleaved (rotating order, ``pause_s`` untimed sleep before each, as
+    :func:`benchmarks.timing.time_interleaved`), each wrapped in ``time.process_time()`` (CPU time of every
+    thread of the process). Thread counts run one after another, so that only one matcher's buffers are alive.
+
+    Returns
+    -------
+    dict
+        ``cores``, ``threads``, ``rows`` (per method and thread count: ``median_ms``, ``min_ms``, ``max_ms``,
+        ``speedup`` = ms at 1 thread / ms, ``efficiency`` = speedup / min(threads, cores), ``cpu_s_per_call``,
+        ``cpu_ratio`` = CPU s per call / that at 1 thread, ``identical`` = output bit-identical (NaN equal) to the
+        1-thread output, ``first_call_ms``), the input's size and ``how``.
+    """
+    from benchmarks.methods import Setup, default_methods, output_views
+    from benchmarks.timing import time_interleaved
+
+    if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
+        raise ValueError(f"`repeat` must be an integer >= 1, got {repeat!r}")
+    cores = usable_cores()
+    counts = tuple(sorted({int(t) for t in threads})) if threads else scaling_threads(cores)
+    if not counts or counts[0] < 1:
+        raise ValueError(f"`threads` must be integers >= 1, got {threads!r}")
+    if counts[0] != 1:
+        counts = (1,) + counts  # the speed-up and the identity are against 1 thread
+    chosen = default_methods(list(methods))
+    shape = left.shape[:2]
+    rows: list[dict] = []
+    base: dict[str, dict] = {}
+    try:
+        for t in counts:
+            setup = Setup(num_disparities=num_disparities, min_disparity=0, block_size=block_size, threads=t)
+            calls: dict[str, object] = {}
+            cpu: dict[str, float] = {}
+            first: dict[str, float] = {}
+            outputs: dict[str, np.ndarray] = {}
+            for m in chosen:
+                runner = m.prepare(setup)
+                t0 = time.perf_counter()
+                out = runner(left, right)
+                first[m.name] = (time.perf_counter() - t0) * 1e3
+                outputs[m.name] = np.array(output_views(out, shape)[0], copy=True)
+                cpu[m.name] = 0.0
+
+                def call(r=runner, n=m.name, cpu=cpu):
+                    c0 = time.process_time()
+                    r(left, right)
+                    cpu[n] += time.process_time() - c0
+
+                calls[m.name] = call
+                if on_step:
+                    on_step(f"{m.name} t{t}")
+            timed = time_interleaved(calls, repeat, first_call=False, pause_s=pause_s,
+                                     on_step=(lambda n, t=t: on_step(f"{n} t{t}")) if on_step else None)
+            for m in chosen:
+                res = timed[m.name]
+                row = {"method": m.name, "threads": t, "median_ms": res.median_ms, "min_ms": res.min_ms,
+                       "max_ms": res.max_ms, "first_call_ms": first[m.name], "cpu_s_per_call": cpu[m.name] / repeat,
+                       "times_ms": list(res.times_ms)}
+                if t == 1:
+                    base[m.name] = {"row": row, "output": outputs[m.name]}
+                ref = base[m.name]
+                row["speedup"] = ref["row"]["median_ms"] / row["median_ms"] if row["median_ms"] else None
+                row["efficiency"] = row["speedup"] / min(t, cores) if row["speedup"] is not None else None
+                row["cpu_ratio"] = (row["cpu_s_per_call"] / ref["row"]["cpu_s_per_call"]
+                                    if ref["row"]["cpu_s_per_call"] > 0 else None)
+                row["identical"] = bool(np.array_equal(outputs[m.name], ref["output"], equal_nan=True))
+                rows.append(row)
+            del calls, outputs
+    finally:
+        cv2.setNumThreads(-1)
+    return {
+        "available": True, "input": name, "width": int(shape[1]), "height": int(shape[0]),
+        "num_disparities": int(num_disparities), "block_size": int(block_size), "cores": cores,
+        "threads": list(counts), "repeat": repeat, "methods": [m.name for m in chosen], "rows": rows,
+        "how": (f"per thread count: first call apart, then {repeat} interleaved calls per method ({pause_s * 1e3:.0f} ms "
+                "untimed pause before each); CPU s = time.process_time() delta around each call (all threads of the "
+                "process); efficiency = speed-up / min(threads, usable cores); identical = np.array_equal(output, "
+                "1-thread output, equal_nan=True)"),
+    }
+
+
+def format_scaling(result: dict) -> str:
+    """The thread-scaling result as a plain-text table."""
+    lines = [(f"{result['width']}x{result['height']}, {result['num_disparities']} disparities, "
+              f"{result['cores']} usable cores, {result['repeat']} repeats")]
+    lines.append(f"{'method':12s} {'threads':>7s} {'median ms':>10s} {'speed-up':>9s} {'effic.':>7s} "
+                 f"{'CPU s/call':>11s} {'CPU ratio':>9s}  identical")
+    for r in result["rows"]:
+        lines.append(f"{r['method']:12s} {r['threads']:7d} {r['median_ms']:10.1f} {r['speedup']:9.2f} "
+                     f"{r['efficiency']:7.2f} {r['cpu_s_per_call']:11.3f} {r['cpu_ratio'] or float('nan'):9.2f}  "
+                     f"{'yes' if r['identical'] else 'NO'}")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=REPO.parent / "shared" / "data")
     ap.add_argument("--repeat", type=int, default=15)
     ap.add_argument("--disparities", type=int, default=128)
     ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--cost", default="census", choices=["census", "sad"])
-    ap.add_argument("--paths", type=int, default=8, choices=[4, 8])
+    ap.add_argument("--cost", default="census", choices=["census+grad", "census", "sad"])
+    ap.add_argument("--paths", type=int, default=8, choices=[3, 4, 8])
     ap.add_argument("--no-opencv", action="store_true")
     ap.add_argument("--gap-ms", type=float, default=50.0, help="pause before every timed call (default 50)")
     ap.add_argument("--lr-mode", default="full", choices=["full", "opencv"], help="LR check of the matcher (1 px)")
+    ap.add_argument("--scaling", action="store_true", help="the thread-scaling table (matcher defaults and 3WAY)")
     a = ap.parse_args(argv)
+    if a.scaling:
+        left, right = load_kitti_grey(a.data)
+        print(format_scaling(thread_scaling(left, right, num_disparities=a.disparities, repeat=a.repeat,
+                                            name="kitti_object_pair")))
+        return 0
     run(a.data, repeat=a.repeat, num_disparities=a.disparities, threads=a.threads, cost=a.cost, paths=a.paths,
         opencv=not a.no_opencv, gap_ms=a.gap_ms, lr_mode=a.lr_mode)
     return 0

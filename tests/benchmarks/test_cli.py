@@ -66,7 +66,9 @@ def test_cli_on_tsukuba_with_onnx_network(shared_data, tmp_path):
     expected = [m.name for m in default_methods()] + ["onnx:sad_wta"]
     report = _check_outputs(out, expected)
     assert list(report["accuracy"]) == ["tsukuba"]
-    assert set(report["figures"]) == ({"disp:tsukuba", "bad2", "speed"} if HAVE_MPL else set())
+    assert set(report["figures"]) == ({"disp:tsukuba", "bad2:Middlebury-style", "speed"} if HAVE_MPL else set())
+    assert [s["family"] for s in report["scenes"]] == ["Middlebury-style"]
+    assert list(report["accuracy_mean"]) == ["Middlebury-style"]
     # the classical baselines must beat the naive network and StereoBM's density must be the lowest
     acc = report["accuracy"]["tsukuba"]
     assert acc["ocv-hh"]["full"]["all"]["bad2"] < acc["onnx:sad_wta"]["full"]["all"]["bad2"]
@@ -90,7 +92,8 @@ def test_cli_on_builtin_demo_without_data(tmp_path, monkeypatch):
     assert code == 0
     report = _check_outputs(out, ["ocv-3way", "ocv-bm"])
     assert len(report["accuracy"]) == 1 and "motorcycle" in next(iter(report["accuracy"])).lower()
-    assert report["accuracy_mean"]["ocv-3way"]["full"]["all"]["bad2"] < report["accuracy_mean"]["ocv-bm"]["full"]["all"]["bad2"]
+    mean = report["accuracy_mean"]["Middlebury-style"]  # the demo is Motorcycle: a Middlebury-style scene
+    assert mean["ocv-3way"]["full"]["all"]["bad2"] < mean["ocv-bm"]["full"]["all"]["bad2"]
 
 
 def test_cli_without_matplotlib_writes_md_and_json(tmp_path, monkeypatch):
