@@ -15,6 +15,7 @@ from benchmarks.render_accuracy import (
     bad2_tables,
     summary_tables,
 )
+from benchmarks.render_accuracy import get as _get
 from benchmarks.render_accuracy import slug as _slug
 from benchmarks.report import (
     Section,
@@ -30,7 +31,7 @@ from benchmarks.report import (
     write_text_atomic,
 )
 
-__all__ = ["REPORT_FILES", "markdown_sections", "summary_markdown", "write_report"]
+__all__ = ["README_METHODS", "REPORT_FILES", "markdown_sections", "readme_markdown", "summary_markdown", "write_report"]
 
 log = logging.getLogger("benchmarks")
 
@@ -449,16 +450,90 @@ def summary_markdown(report: Mapping[str, Any]) -> str:
     return render_markdown("Results", [sec]).split("\n", 2)[2]
 
 
+#: Methods of the README table: the default against every OpenCV SGBM mode.
+README_METHODS: tuple[str, ...] = ("sc-default", "ocv-sgbm", "ocv-hh", "ocv-3way", "ocv-hh4")
+
+
+def _speed_line(report: Mapping[str, Any]) -> str | None:
+    rows = [r for r in report.get("speed", []) if r.get("median_ms") is not None
+            and (r["width"], r["height"], r["num_disparities"]) == (1242, 375, 128)]
+    if not rows:
+        return None
+    t = 2 if any(r["threads"] == 2 for r in rows) else max(r["threads"] for r in rows)
+    sel = {r["method"]: r for r in rows if r["threads"] == t}
+    if "sc-default" not in sel:
+        return None
+    me = sel["sc-default"]["median_ms"]
+    parts = [f"`{b}` {sel[b]['median_ms']:.1f} ms ({sel[b]['median_ms'] / me:.2f}x)" for b in README_METHODS[1:] if b in sel]
+    return (f"**Speed** at 1242x375x128, {t} thread(s), median: `sc-default` {me:.1f} ms; " + ", ".join(parts)
+            + " (x = their ms / ours).")
+
+
+def _scaling_line(report: Mapping[str, Any]) -> str | None:
+    sc = report.get("scaling") or {}
+    if not sc.get("available"):
+        return None
+    by = {(r["method"], r["threads"]): r for r in sc["rows"]}
+    counts = sc["threads"]
+    parts = []
+    for m in sc["methods"]:
+        ms = " / ".join(fmt(by.get((m, t), {}).get("median_ms"), 1) for t in counts)
+        up = " / ".join(fmt(by.get((m, t), {}).get("speedup")) for t in counts)
+        parts.append(f"`{m}` {ms} ms (speed-up {up})")
+    top = counts[-1]
+    cpu = by.get(("sc-default", top), {}).get("cpu_ratio")
+    same = all(r["identical"] for r in sc["rows"] if r["method"] == "sc-default")
+    return (f"**Thread scaling** on the KITTI pair ({sc['cores']} usable cores), threads {' / '.join(map(str, counts))}: "
+            + "; ".join(parts) + f". `sc-default` CPU time per call at {top} threads: {fmt(cpu)}x that at 1 thread; output "
+            f"bit-identical at every thread count: {'yes' if same else 'no'}.")
+
+
+def readme_markdown(report: Mapping[str, Any]) -> str:
+    """The README's results block: per family the default against every OpenCV mode in three views, speed, scaling.
+
+    ``python -m benchmarks.render bench_out/report.json`` prints it; ``--full`` prints :func:`summary_markdown`.
+    """
+    m = report["machine"]
+    lines = [(f"Measured {m['date_utc']} UTC on {m['cpu_model']} ({m['usable_cpus']} CPUs), OpenCV "
+             f"{m['versions'].get('cv2')}, numba {m['versions'].get('numba')}, commit `{m.get('git_commit')}`, with "
+             f"`{' '.join(report['command'])}`. bad-2 % (lower is better), mean per family:"), "",
+             "| scenes | method | dense | ukb | valid | valid density % |", "|---|---|---|---|---|---|"]
+    means = report.get("accuracy_mean") or {}
+    for family, per_method in means.items():
+        n = max((v.get("scenes", 0) for v in per_method.values()), default=0)
+        first = True
+        for name in README_METHODS:
+            if name not in per_method:
+                continue
+            acc = per_method[name]
+            cells = [fmt(_get(acc, "full", view, "bad2")) for view, _ in VIEW_LABELS]
+            lines.append(f"| {f'{family} ({n})' if first else ''} | {name} | " + " | ".join(cells)
+                         + f" | {fmt(_get(acc, 'full', 'valid', 'density'), 1)} |")
+            first = False
+    lines.append("")
+    for extra in (_speed_line(report), _scaling_line(report)):
+        if extra:
+            lines += [extra, ""]
+    pipe = [p for p in _pipeline_rows(report) if p.get("available") and not p.get("concurrent")]
+    if pipe:
+        lines += ["**Pipeline** (Localizer, default detector, 2 threads): " + "; ".join(
+            f"{p['size'][0]}x{p['size'][1]}x{p['num_disparities']} {p['fps']:.1f} frames/s" for p in pipe) + ".", ""]
+    return "\n".join(lines)
+
+
 if __name__ == "__main__":
     import json
     import sys
 
-    if len(sys.argv) != 2:
-        print("usage: python -m benchmarks.render REPORT.json", file=sys.stderr)
+    args = sys.argv[1:]
+    full = "--full" in args
+    args = [a for a in args if a != "--full"]
+    if len(args) != 1:
+        print("usage: python -m benchmarks.render [--full] REPORT.json", file=sys.stderr)
         sys.exit(2)
     try:
-        data = json.loads(Path(sys.argv[1]).read_text(encoding="utf-8"))
-        print(summary_markdown(data))
+        data = json.loads(Path(args[0]).read_text(encoding="utf-8"))
+        print(summary_markdown(data) if full else readme_markdown(data))
     except (OSError, ValueError, KeyError) as exc:
-        print(f"error: {sys.argv[1]}: {exc}", file=sys.stderr)
+        print(f"error: {args[0]}: {exc}", file=sys.stderr)
         sys.exit(1)

@@ -1,0 +1,44 @@
+"""benchmarks.sgm_speed: the thread counts and the thread-scaling table on a tiny pair."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from benchmarks.sgm_speed import (
+    format_scaling,
+    scaling_threads,
+    thread_scaling,
+    usable_cores,
+)
+
+
+def test_scaling_threads_cover_the_cores_and_oversubscription():
+    assert scaling_threads(1) == (1, 2, 4, 8)
+    assert scaling_threads(2) == (1, 2, 4, 8)
+    assert scaling_threads(12) == tuple(range(1, 13))
+    assert scaling_threads()[-1] >= usable_cores() >= 1
+
+
+def test_thread_scaling_table_on_a_tiny_pair():
+    rng = np.random.default_rng(1)
+    left = rng.integers(0, 255, (24, 48), dtype=np.uint8)
+    right = np.roll(left, -3, axis=1)
+    res = thread_scaling(left, right, num_disparities=16, threads=(2, 3), repeat=1, name="tiny", pause_s=0.0)
+    assert res["threads"] == [1, 2, 3] and res["methods"] == ["sc-default", "ocv-3way"]
+    assert [(r["method"], r["threads"]) for r in res["rows"]] == [
+        ("sc-default", 1), ("ocv-3way", 1), ("sc-default", 2), ("ocv-3way", 2), ("sc-default", 3), ("ocv-3way", 3)]
+    for r in res["rows"]:
+        assert r["median_ms"] > 0 and r["cpu_s_per_call"] >= 0 and isinstance(r["identical"], bool)
+        assert r["efficiency"] == pytest.approx(r["speedup"] / min(r["threads"], res["cores"]))
+    firsts = [r for r in res["rows"] if r["threads"] == 1]
+    assert all(r["speedup"] == 1.0 and r["identical"] for r in firsts)
+    assert "tiny" == res["input"] and "identical" in format_scaling(res)
+
+
+def test_thread_scaling_rejects_bad_arguments():
+    img = np.zeros((8, 8), np.uint8)
+    with pytest.raises(ValueError, match="`repeat` must be an integer >= 1"):
+        thread_scaling(img, img, repeat=0)
+    with pytest.raises(ValueError, match="`threads` must be integers >= 1"):
+        thread_scaling(img, img, threads=(0, 2))
