@@ -13,9 +13,8 @@ pixels, so a quarter of the matcher's time):
   :data:`BOX_SATURATION` (5 %) of its known pixels are at the end, or fewer than :data:`BOX_SPARSE` (60 %) of
   its pixels are known (a fine texture beyond the range matches the wall behind rather than pile up; a
   hole-filled map hides this). Then the pair is matched again at half size with the same number of
-  disparities, which reaches twice as far (the first frame's pair check has that look anyway, so there every
-  object is verified): the frame's warning says which range would fit, and each object whose disparity
-  there lies more than 2 px (the look's own step) beyond the full-size range gets the status
+  disparities, which reaches twice as far: the frame's warning says which range would fit, and each object
+  whose disparity there lies more than 2 px (the look's own step) beyond the full-size range gets the status
   ``"beyond_range"`` instead of a distance (what it had was the best of wrong candidates). The half-size looks
   use fixed settings (census, 1 px left-right check, no hole filling), whatever the caller's.
 * **Pair.** Swapped images have negative disparities, which the search does not cover: matching the pair the
@@ -27,9 +26,9 @@ pixels, so a quarter of the matcher's time):
   is preferred by more than that or neither keeps :data:`MISMATCH_VALID` (30 %) of its pixels (two unrelated
   OAK-D images: 8 to 10 %; the lowest real pair, stairs: 47 %). A right image shifted by 12 rows still keeps
   35 %: a vertical offset is what the rectification check of ``RectifiedRig.rectify_pair`` measures. Every
-  object of a swapped or mismatched frame gets the status ``"pair_mismatch"``. The check runs on the first
-  frame a :class:`FrameChecker` sees and again whenever the valid fraction falls below 3/4 of that first
-  frame's (a stream keeps its cabling).
+  object of a swapped or mismatched frame gets the status ``"pair_mismatch"``. The check runs on every frame
+  (half the disparities at half size: the same reach for an eighth of the work, twice), so that a frame's
+  result never depends on the frames before it; ``Localizer(checks=False)`` turns the checks off.
 """
 
 from __future__ import annotations
@@ -119,57 +118,47 @@ class FrameChecker:
 
     def __init__(self, params: SGMParams) -> None:
         self.params = params
-        self._matcher: StereoMatcher | None = None
-        self._first_valid: float | None = None
-        self._look: tuple[np.ndarray, DisparityMap] | None = None  # (left image, its half-size look) of this frame
+        self._matchers: dict[bool, StereoMatcher] = {}
 
-    def _half_match(self, left: np.ndarray, right: np.ndarray) -> DisparityMap | None:
-        """Disparity of the half-size pair with the same number of disparities (twice the reach), or None when
-        the half-size images are too small for it.
+    def _half_match(self, left: np.ndarray, right: np.ndarray, *, reach: bool) -> DisparityMap | None:
+        """Disparity of the half-size pair, or None when the half-size images are too small for the range.
 
+        ``reach``: the same number of disparities as the full-size match, so twice its reach (the range check);
+        otherwise half of them (rounded up to 16): the same reach at a quarter of the pixels (the pair check).
         The settings are fixed, whatever the caller's (census cost with its default penalties, the full 1 px
         left-right check, no hole filling): the valid fraction is the share of left-right consistent pixels and
         every disparity a measured one.
         """
         try:
-            if self._matcher is None:
+            if reach not in self._matchers:
                 p = self.params
-                self._matcher = StereoMatcher(p.replace(
-                    min_disparity=math.floor(p.min_disparity / 2), cost="census", p1=None, p2=None, lr_check=1.0,
-                    lr_mode="full", fill_holes=False))
-            return self._matcher.compute(_half(left), _half(right))
+                num = p.num_disparities if reach else 16 * math.ceil(p.num_disparities / 32)
+                self._matchers[reach] = StereoMatcher(p.replace(
+                    min_disparity=math.floor(p.min_disparity / 2), num_disparities=num, cost="census", p1=None,
+                    p2=None, lr_check=1.0, lr_mode="full", fill_holes=False))
+            return self._matchers[reach].compute(_half(left), _half(right))
         except ValueError:  # StereoInputError, MemoryBudgetError: the images are too small for the range
             return None
 
     def close(self) -> None:
-        if self._matcher is not None:
-            self._matcher.release()
+        for matcher in self._matchers.values():
+            matcher.release()
 
     # ------------------------------------------------------------------------------------------ pair
     def check_pair(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap) -> FrameWarning | None:
-        """The swapped / mismatched pair warning, or None (also when the check was not due).
-
-        The half-size look at the pair as given is kept for :meth:`check_range` on the same frame.
-        """
-        self._look = None
+        """The swapped / mismatched pair warning, or None. ``dmap`` (the full-size disparity) is quoted."""
         valid = dmap.valid_fraction
-        if self._first_valid is not None and valid >= 0.75 * self._first_valid:
-            return None
         if left.shape == right.shape and np.array_equal(left, right):
-            self._first_valid = valid if self._first_valid is None else self._first_valid
             return FrameWarning("pair_mismatch", "left and right are the same image (every disparity is 0, every "
                                                  "depth infinite); no distance is reported")
         h, w = left.shape[:2]
-        if w // 2 < max(MIN_CHECK_WIDTH, self.params.num_disparities + 32) or h // 2 < MIN_CHECK_HEIGHT:
+        if w // 2 < max(MIN_CHECK_WIDTH, self.params.num_disparities // 2 + 32) or h // 2 < MIN_CHECK_HEIGHT:
             return None  # too small to tell: on tiny images nearly every match is consistent both ways
-        forward = self._half_match(left, right)
-        backward = self._half_match(right, left)
+        forward = self._half_match(left, right, reach=False)
+        backward = self._half_match(right, left, reach=False)
         if forward is None or backward is None:
             return None
-        self._look = (left, forward)
         fwd, rev = forward.valid_fraction, backward.valid_fraction
-        if self._first_valid is None:
-            self._first_valid = valid
         if rev > fwd + SWAP_MARGIN and rev >= MISMATCH_VALID:
             return FrameWarning("swapped_pair", (
                 f"left and right look swapped: matched the other way round, {rev:.0%} of the pixels are consistent "
@@ -190,11 +179,9 @@ class FrameChecker:
         top = float(dmap.params.max_disparity)
         frame_share = range_saturation(disp, top)
         boxes = _suspect_boxes(disp, objects, top, fusion.box_shrink)
-        look, self._look = self._look, None
-        looked = look is not None and look[0] is left  # the pair check looked at this frame: use it for every box
-        if frame_share < SATURATION_WARN and not boxes.any() and not looked:
+        if frame_share < SATURATION_WARN and not boxes.any():
             return objects, None
-        probe = look[1] if looked else self._half_match(left, right)
+        probe = self._half_match(left, right, reach=True)
         if probe is None:
             return objects, (FrameWarning("range_saturated", _range_message(frame_share, top, rig, None))
                              if frame_share >= SATURATION_WARN else None)
@@ -202,8 +189,8 @@ class FrameChecker:
         wide = cv2.resize(probe.disparity * np.float32(2.0), (w, h), interpolation=cv2.INTER_NEAREST)
         beyond = np.zeros(len(objects), dtype=bool)
         needed_by_objects: float | None = None
-        if frame_share >= SATURATION_WARN or looked:
-            boxes[:] = True  # the frame is suspect, or the look is there anyway: every object is looked at again
+        if frame_share >= SATURATION_WARN:
+            boxes[:] = True  # the frame is suspect: every object is looked at again
         if boxes.any():
             again = localize(objects.xyxy[boxes], wide, rig, fusion, rng=seed)
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -231,7 +218,7 @@ class FrameChecker:
         share = range_saturation(dmap.disparity, top)
         if share < SATURATION_WARN:
             return None
-        probe = self._half_match(left, right)
+        probe = self._half_match(left, right, reach=True)
         needed = None
         if probe is not None:
             h, w = dmap.disparity.shape
