@@ -13,7 +13,6 @@
 from __future__ import annotations
 
 import math
-import os
 import threading
 import time
 from collections.abc import Mapping
@@ -77,7 +76,8 @@ class DisparityMap:
     validity : dict[str, int | None]
         Pixel counts: "pixels" (H * W), "valid" (finite in ``disparity``), "unknown_matcher" (NaN
         out of the matcher) = "no_candidate" (columns where no disparity of the range lands inside
-        the right image) + "failed_lr" + "failed_uniqueness" (exact counts from the kernels), "speckle_removed",
+        the right image) + "failed_lr" + "failed_uniqueness" (exact counts from the kernels), "short_range"
+        (border pixels set unknown because they could search less than ``border_reach`` of the range), "speckle_removed",
         "filled" (by ``fill_holes``), "border" (pixels in the image bands where the full disparity
         range does not fit, matched with the range that does) and "border_valid".
     filled : (H, W) bool or None
@@ -363,7 +363,7 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
     # the kernels: sum volume, their outputs (left and right float32 disparity), cost inputs, row buffers
     core = kernels.memory_bytes(height, width, params.num_disparities, paths=params.paths,
                                 lr_check=params.lr_check is not None, cost=params.cost,
-                                block_size=params.block_size)
+                                block_size=params.block_size, threads=params.effective_threads)
     conversion = _conversion_bytes((height, width), dtype)
     post = (4 + 2 + 4 + 1) * pixels  # speckle: float32 copy, int16 scaled copy, masks
     if params.fill_holes:
@@ -407,6 +407,21 @@ def _no_candidate_columns(shape: tuple[int, int], params: SGMParams) -> np.ndarr
     return (x - params.min_disparity < 0) | (x - params.max_disparity > width - 1)
 
 
+def _short_reach_columns(shape: tuple[int, int], params: SGMParams) -> np.ndarray:
+    """(W,) bool: columns whose pixels can search fewer than ``border_reach * num_disparities`` disparities.
+
+    At the image borders part of the range maps outside the right image; where most of it does, the true
+    match is likely out of reach and the winner of what is left is not a measurement (on the OAK-D scenes
+    such pixels came out at d ~ 0, "far away", at the left edge of a room).
+    """
+    width = shape[1]
+    x = np.arange(width)
+    first = np.maximum(0, x - params.min_disparity - width + 1)
+    last = np.minimum(params.num_disparities - 1, x - params.min_disparity)
+    reach = np.maximum(0, last - first + 1)
+    return (reach > 0) & (reach < params.border_reach * params.num_disparities)
+
+
 def _border_mask(shape: tuple[int, int], params: SGMParams) -> np.ndarray:
     """(W,) bool: columns where the full disparity range does not fit in the right image."""
     width = shape[1]
@@ -437,13 +452,19 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         num_disparities=params.num_disparities, block_size=params.block_size, census_window=params.census_window,
         p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.adaptive_p2,
         uniqueness=params.uniqueness / 100.0, lr_check=params.lr_check, subpixel=params.subpixel,
-        threads=params.threads if params.threads is not None else (os.cpu_count() or 1),
+        threads=params.effective_threads,
         lr_mode=params.lr_mode, return_right=params.right_view, workspace=workspace)
     t2 = time.perf_counter()
 
     disparity = np.asarray(disparity, dtype=np.float32)
     unknown_matcher = int(np.isnan(disparity).sum())
-    valid_before = disparity.size - unknown_matcher
+    short = _short_reach_columns(disparity.shape, params)
+    short_range = 0
+    if short.any():  # border pixels that could search too little of the range: not a measurement
+        short_range = int(np.isfinite(disparity[:, short]).sum())
+        disparity = disparity.copy() if not disparity.flags.writeable else disparity
+        disparity[:, short] = np.nan
+    valid_before = disparity.size - unknown_matcher - short_range
     if params.speckle_size > 0:
         disparity = filter_speckles(disparity, max_size=params.speckle_size, max_diff=params.speckle_range)
     valid_after_speckle = int(np.isfinite(disparity).sum())
@@ -471,6 +492,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         "no_candidate": no_candidate,
         "failed_lr": int(core_timings["n_failed_lr"]),
         "failed_uniqueness": int(core_timings["n_failed_uniqueness"]),
+        "short_range": short_range,
         "speckle_removed": valid_before - valid_after_speckle,
         "filled": filled,
         "border": int(border.sum()) * disparity.shape[0],

@@ -201,6 +201,13 @@ class SGMParams:
         pixels are set unknown; 0 = off. Default 100.
     speckle_range : float
         Largest disparity step inside one speckle region, pixels. Default 2.0.
+    border_reach : float
+        0 .. 1. Pixels near the image borders can search only the part of the range that maps inside the
+        right image; those that can search less than this fraction of ``num_disparities`` are set unknown
+        (their true match is likely out of reach: a winner at d ~ 0 reads as "far away"). With
+        ``fill_holes`` they are then filled from the background next to them (marked as filled). 0 keeps
+        every pixel with at least one candidate. Default 0.5 (measured on the shared scenes, dense bad-2,
+        Middlebury-style / driving: keep all 6.8 / 18.6, 0.5 6.5 / 15.9, 1.0 8.2 / 16.8).
     fill_holes : bool
         Fill unknown pixels from the background side of each row, then a 3x3 median
         (dense output, not a measurement: ``DisparityMap.filled`` marks them and distances use only
@@ -210,8 +217,9 @@ class SGMParams:
         bottom, 8 adds the diagonals. Diagonal and bottom-up paths pay P1 at every row on surfaces slanted
         in y (the road, the floor) and measured worse there; see docs/matching.md.
     threads : int or None
-        Worker threads for the kernels; None = one per CPU. The kernels currently use at most 2
-        (the forward and the backward pass run concurrently). Default None.
+        Worker threads for the kernels; None = every CPU this process may use (its affinity mask and
+        cgroup CPU quota, see ``effective_threads``). The image is cut into stripes of about 32 rows fixed
+        by its height, so the disparity is bit-identical for every thread count. Default None.
     memory_limit : int or None
         Refuse inputs whose estimated working memory exceeds this many bytes (MemoryBudgetError).
         None: ``$STEREO_CLASSIC_MEMORY_LIMIT`` or 50 % of physical RAM.
@@ -247,6 +255,9 @@ class SGMParams:
         "help": "remove regions smaller than this many pixels, 0 = off", "metavar": "PIXELS"})
     speckle_range: float = dataclasses.field(default=2.0, metadata={
         "help": "largest disparity step inside one speckle region, px", "metavar": "PX"})
+    border_reach: float = dataclasses.field(default=0.5, metadata={
+        "help": "border pixels that can search less than this fraction of the range are unknown (0 = keep all)",
+        "metavar": "FRACTION"})
     fill_holes: bool = dataclasses.field(default=True, metadata={
         "help": "fill unknown pixels from the background side (dense map, filled values are guesses)"})
     paths: int = dataclasses.field(default=3, metadata={
@@ -318,6 +329,9 @@ class SGMParams:
         if not _is_int(self.speckle_size) or self.speckle_size < 0:
             fail("speckle_size", "a non-negative integer number of pixels (0 = off)", self.speckle_size)
         normalise("speckle_size", int(self.speckle_size))
+        if not _is_real(self.border_reach) or not 0.0 <= self.border_reach <= 1.0:
+            fail("border_reach", "a fraction between 0 and 1", self.border_reach)
+        normalise("border_reach", float(self.border_reach))
         if not _is_real(self.speckle_range) or not 0 <= self.speckle_range <= MAX_NUM_DISPARITIES:
             fail("speckle_range", "a non-negative number of pixels", self.speckle_range)
         normalise("speckle_range", float(self.speckle_range))
@@ -358,6 +372,11 @@ class SGMParams:
         if self.cost == "census+grad":
             return _CENSUS_P2 + _GRAD_P2
         return _CENSUS_P2 if self.cost == "census" else _SAD_P2_PER_PIXEL * self.block_size**2
+
+    @property
+    def effective_threads(self) -> int:
+        """Threads actually used: ``threads``, or every CPU this process may use when it is None."""
+        return self.threads if self.threads is not None else kernels.usable_cpus()
 
     @property
     def effective_memory_limit(self) -> int:

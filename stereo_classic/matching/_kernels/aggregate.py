@@ -137,6 +137,13 @@ class PassPlan(NamedTuple):
         (SAD) build the column sums from scratch at the first row.
     keep_sums : bool
         Write the complete sums back to the volume (test entry ``sum_volume``).
+    warmup : int
+        The first ``warmup`` rows only run the paths in (so that the vertical and diagonal paths of a
+        stripe start from a state that has seen the rows above it): nothing is read from or written to
+        the volume's rows for them (they use ``scratch_row`` instead) and nothing is selected. See
+        ``core.stripes``.
+    scratch_row : int
+        Row of the sums volume (past the image's H rows: one per worker) that warm-up rows write to.
     """
 
     y_first: int
@@ -146,6 +153,8 @@ class PassPlan(NamedTuple):
     select: bool
     init_cost: bool
     keep_sums: bool
+    warmup: int = 0
+    scratch_row: int = 0
 
 
 class ThreadBuffers(NamedTuple):
@@ -344,6 +353,8 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
     select = plan.select
     init_cost = plan.init_cost
     keep_sums = plan.keep_sums
+    warmup = plan.warmup
+    scratch = plan.scratch_row
     PH = bufs.path_h
     PV = bufs.path_v
     PA = bufs.path_a
@@ -374,6 +385,7 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
     E = D + 2
     m4 = (path_mask & 15) if step > 0 else ((path_mask >> 4) & 15)
     four = (m4 & 12) != 0
+    horizontal_only = m4 == 1  # only the horizontal path of this direction: skip the vertical one
     minus1 = np.int16(-1)
     zero = np.int16(0)
     mk0 = minus1 if m4 & 1 else zero
@@ -388,9 +400,15 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
     forward = step > 0
     dst = Sf if keep_sums else Ssum
     nrr = W + D - 1  # length of one reversed right-row quarter
+    select_all = select
     for r in range(nrows):
         y = y_first + step * r
         v = y if forward else H - 1 - y
+        # warm-up rows: the image rows of the volume are neither read nor written (the worker's scratch
+        # row of the same array instead: one array keeps the loops' no-alias code), nothing is selected
+        warming = r < warmup
+        row = scratch if warming else y
+        select = select_all and not warming
         # --- per-row cost preparation
         if kind != 1:  # rrev[q * nrr + j] = quarter q of the right code at column clamp(W - 1 - dmin - j)
             for j in range(nrr):
@@ -461,7 +479,7 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                 for k in range(D):
                     if k < k_lo or k > k_hi:
                         C[k] = cinv16
-            sb = (y * W + x) * D
+            sb = (row * W + x) * D
             db = sb if keep_sums else 0
             # --- slots: write w, read w + 1 (horizontal: alternate between slots 0 and 1)
             rhs = i & 1
@@ -577,6 +595,21 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                                                add16(and16(va, mk2), and16(vb, mk3)))
                 MA[was] = na
                 MB[wbs] = nb
+            elif horizontal_only:  # one path (e.g. the backward pass of the 3-direction set): no vertical work
+                if accumulate:
+                    for k in range(D):
+                        vh = _lr(PH, rh, C[k], mh, qh, p1_16, k)
+                        PH[_U(wh + 1 + k)] = vh
+                        nh = min16(nh, vh)
+                        sm = add16(vh, Sf[_U(sb + k)])
+                        dst[_U(db + k)] = sm
+                        ns = min16(ns, sm)
+                else:
+                    for k in range(D):
+                        vh = _lr(PH, rh, C[k], mh, qh, p1_16, k)
+                        PH[_U(wh + 1 + k)] = vh
+                        nh = min16(nh, vh)
+                        Sf[_U(sb + k)] = vh
             else:
                 if accumulate:
                     for k in range(D):

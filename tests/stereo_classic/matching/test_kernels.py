@@ -7,6 +7,7 @@ test_kernels_scenes.py.
 from __future__ import annotations
 
 import ast
+import os
 from pathlib import Path
 
 import numpy as np
@@ -413,3 +414,51 @@ def test_kernels_import_nothing_else_from_the_project():
             for name in names:
                 ours = name.split(".")[0] in ("stereo_classic", "calib", "detectors", "benchmarks")
                 assert not ours or name.startswith("stereo_classic.matching._kernels"), f"{path.name} imports {name}"
+
+
+# --------------------------------------------------------------------------------------------------
+# the parallel decomposition: stripes fixed by the image height, any number of threads
+# --------------------------------------------------------------------------------------------------
+def test_stripes_cover_every_row_once_and_depend_on_the_height_only():
+    for h in (1, 2, 47, 48, 73, 375, 480, 1080):
+        bands = core.stripes(h)
+        assert bands[0][0] == 0 and bands[-1][1] == h
+        assert all(a[1] == b[0] for a, b in zip(bands, bands[1:]))
+        sizes = [y1 - y0 for y0, y1 in bands]
+        assert max(sizes) - min(sizes) <= 1 and (h < core.STRIPE_ROWS or min(sizes) >= core.STRIPE_ROWS // 2)
+
+
+@pytest.mark.parametrize("paths", [3, 4, 8])
+def test_same_output_for_every_thread_count(paths):
+    """The stripes are fixed by the height: 1, 2, 3, 5 and 8 threads give bit-identical results."""
+    tex = _textured(150, 90, seed=3)
+    left = np.round(tex).astype(np.uint8)
+    right = np.round(_sample_rows(tex, np.arange(90)[None, :].repeat(150, 0) + 6)).astype(np.uint8)
+    assert len(core.stripes(150)) >= 3
+    first = None
+    for threads in (1, 2, 3, 5, 8):
+        d, dr, t = core.sgm_match(left, right, cost="census+grad", num_disparities=16, p1=28, p2=112, paths=paths,
+                                  uniqueness=0.05, lr_check=1.0, threads=threads, return_right=True)
+        got = (d, dr, t["n_failed_lr"], t["n_failed_uniqueness"])
+        if first is None:
+            first = got
+            continue
+        np.testing.assert_array_equal(got[0], first[0])
+        np.testing.assert_array_equal(got[1], first[1])
+        assert got[2:] == first[2:]
+
+
+@pytest.mark.parametrize("threads", [1, 3])
+def test_horizontal_paths_are_exact_across_stripes(threads):
+    """Left and right paths never cross a row: on a tall image cut into stripes they equal the reference."""
+    left, right = _pair(32, h=130, w=24, shift=2)
+    assert len(core.stripes(130)) >= 2
+    C = ref.cost_volume_reference(left, right, num_disparities=8, p2=P2)
+    want = ref.sum_reference(C, 0x11, P1, P2)
+    got = core.sum_volume(left, right, path_mask=0x11, threads=threads, num_disparities=8, p1=P1, p2=P2)
+    np.testing.assert_array_equal(got, want)
+
+
+def test_usable_cpus_honours_the_affinity_mask():
+    n = core.usable_cpus()
+    assert 1 <= n <= len(os.sched_getaffinity(0))

@@ -75,7 +75,10 @@ class TestComputeDisparity:
         assert v["pixels"] == left.size and v["valid"] == np.isfinite(dmap.disparity).sum()
         assert 0.0 < dmap.valid_fraction <= 1.0 and dmap.valid_fraction == pytest.approx(v["valid"] / left.size)
         assert v["border"] == 15 * left.shape[0]  # columns 0..14 cannot hold the full range 0..15
-        assert v["unknown_matcher"] + v["speckle_removed"] + v["valid"] - v["filled"] == left.size
+        # columns 0..6 reach fewer than 16 / 2 disparities: never measured (filled from the background at most)
+        assert 0 < v["short_range"] <= 7 * left.shape[0] and np.isnan(dmap.measured_disparity[:, :7]).all()
+        assert (v["unknown_matcher"] + v["short_range"] + v["speckle_removed"] + v["valid"] - v["filled"]
+                == left.size)
 
     def test_params_object_and_overrides(self):
         left, right = _shift_pair()
@@ -161,7 +164,7 @@ class TestComputeDisparity:
         left, right = _shift_pair(shift=9, seed=11)
         left[:, 50:60] = 128  # a flat patch: ambiguous, some pixels fail the filters
         dmap = compute_disparity(left, right, min_disparity=3, num_disparities=16, lr_check=lr_check,
-                                 uniqueness=uniqueness, speckle_size=0, fill_holes=False)
+                                 uniqueness=uniqueness, speckle_size=0, fill_holes=False, border_reach=0.0)
         v = dmap.validity
         assert v["no_candidate"] == 3 * left.shape[0]  # columns 0..2 cannot reach disparity >= 3
         assert np.isnan(dmap.disparity[:, :3]).all()

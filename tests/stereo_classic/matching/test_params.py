@@ -104,7 +104,7 @@ class TestParams:
 # --------------------------------------------------------------------------------------------------
 _FLAG_FIELDS = {"min_disparity", "num_disparities", "cost", "block_size", "census_window", "p1", "p2", "uniqueness",
                 "lr_check", "lr_mode", "speckle_size", "speckle_range", "paths", "adaptive_p2", "subpixel",
-                "fill_holes"}
+                "fill_holes", "border_reach"}
 
 
 class TestCliMetadata:
