@@ -175,7 +175,7 @@ class FrameChecker:
     def check_range(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap, objects: LocalizedObjects,
                     rig: Any, fusion: FusionParams, seed: int) -> tuple[LocalizedObjects, FrameWarning | None]:
         """The objects (those beyond the range re-marked ``"beyond_range"``) and the range warning, or None."""
-        disp = dmap.disparity
+        disp = dmap.measured_disparity  # filled pixels are guesses: they neither saturate nor count as known
         top = float(dmap.params.max_disparity)
         frame_share = range_saturation(disp, top)
         boxes = _suspect_boxes(disp, objects, top, fusion.box_shrink)

@@ -230,9 +230,8 @@ def merge_config(file_config: Mapping[str, Any] | None, flags: Mapping[str, Any]
     for key, value in flags.items():
         if value is not None:
             merged[key] = _check(key, value, RUN_DEFAULTS[key][1], "command line")
-    for key, value in matcher_flags.items():
-        if value is not None:
-            matcher[key] = value
+    for key, value in matcher_flags.items():  # only the flags given; None = "off" (e.g. --lr-check off)
+        matcher[key] = value
     merged["matcher"] = matcher
     return merged
 
@@ -254,14 +253,15 @@ def _toml_value(value: Any) -> str:
 
 
 def dump_config(config: Mapping[str, Any]) -> str:
-    """The merged config as TOML text (``None`` values are left out: TOML has no null)."""
+    """The merged config as TOML text (run options that are ``None`` are left out: TOML has no null; a matcher
+    field set to None, such as ``lr_check``, is written "off", as its flag takes it)."""
     lines = ["# python -m stereo_classic run --config this.toml"]
     for key in RUN_DEFAULTS:
         if config.get(key) is not None:
             lines.append(f"{key} = {_toml_value(config[key])}")
-    matcher = {k: v for k, v in dict(config.get("matcher") or {}).items() if v is not None}
+    matcher = dict(config.get("matcher") or {})
     lines.append("")
     lines.append("[matcher]")
-    for key, value in matcher.items():
-        lines.append(f"{key} = {_toml_value(value)}")
+    for key, value in matcher.items():  # a field set to None is "off" (lr_check), as its flag writes it
+        lines.append(f"{key} = {_toml_value(value) if value is not None else chr(34) + 'off' + chr(34)}")
     return "\n".join(lines) + "\n"

@@ -46,13 +46,25 @@ def flag_of(cls: type, name: str) -> str:
     return "--" + name.replace("_", "-")
 
 
+class _ExplicitNone:
+    """What a flag holds when its text parsed to None ("off"): given, unlike a flag left at None."""
+
+    def __repr__(self) -> str:
+        return "EXPLICIT_NONE"
+
+
+EXPLICIT_NONE = _ExplicitNone()
+
+
 def _parser(parse: Callable[[str], Any]) -> Callable[[str], Any]:
-    """``parse`` with ValueError turned into argparse's error (so the message reaches the user)."""
+    """``parse`` with ValueError turned into argparse's error (so the message reaches the user); a text that
+    parses to None (e.g. ``--lr-check off``) gives EXPLICIT_NONE, so that it is not taken for "not given"."""
     def convert(text: str) -> Any:
         try:
-            return parse(text)
+            value = parse(text)
         except ValueError as exc:
             raise argparse.ArgumentTypeError(str(exc)) from None
+        return EXPLICIT_NONE if value is None else value
 
     convert.__name__ = getattr(parse, "__name__", "value")
     return convert
@@ -118,9 +130,18 @@ def add_options(group: Any, cls: type, *, defaults: Any = None, dest_prefix: str
                            help=text.replace("%", "%%"), **kwargs)
 
 
-def read_options(args: argparse.Namespace, cls: type, *, dest_prefix: str = "") -> dict[str, Any]:
-    """{field: value} of every option field of ``cls`` (None where unset and no default was given)."""
-    return {f.name: getattr(args, f"{dest_prefix}{f.name}") for f in option_fields(cls)}
+def read_options(args: argparse.Namespace, cls: type, *, dest_prefix: str = "",
+                 given_only: bool = False) -> dict[str, Any]:
+    """{field: value} of every option field of ``cls`` (None where unset and no default was given, or where
+    the flag said "off"). ``given_only``: only the flags given on the command line (an "off" among them as
+    None), for merging over a config file and the dataclass's defaults."""
+    out = {}
+    for f in option_fields(cls):
+        value = getattr(args, f"{dest_prefix}{f.name}")
+        if given_only and value is None:
+            continue
+        out[f.name] = None if value is EXPLICIT_NONE else value
+    return out
 
 
 def option_names(message: str, *classes: type) -> str:

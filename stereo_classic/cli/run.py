@@ -128,7 +128,7 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
     flags = {k: getattr(args, k, None) for k in RUN_DEFAULTS}
     if not flags.get("rectify"):  # a store_true switch: absent is "not given", so the config file may set it
         flags["rectify"] = None
-    matcher_flags = read_options(args, SGMParams, dest_prefix="matcher_")
+    matcher_flags = read_options(args, SGMParams, dest_prefix="matcher_", given_only=True)
     try:
         file_cfg = load_config(args.config) if args.config else None
         cfg = merge_config(file_cfg, flags, matcher_flags)

@@ -259,7 +259,8 @@ class SGMParams:
         "help": "border pixels that can search less than this fraction of the range are unknown (0 = keep all)",
         "metavar": "FRACTION"})
     fill_holes: bool = dataclasses.field(default=True, metadata={
-        "help": "fill unknown pixels from the background side (dense map, filled values are guesses)"})
+        "help": "fill unknown pixels from the background side of their row (dense map; filled pixels are "
+                "marked and never make a distance); --no-fill-holes leaves them unknown"})
     paths: int = dataclasses.field(default=3, metadata={
         "help": "aggregation directions: 3 (left, right, top), 4 (+bottom) or 8 (+diagonals)", "choices": (3, 4, 8)})
     threads: int | None = None

@@ -55,13 +55,13 @@ def test_options_reach_the_matcher(pair_files, tmp_path, monkeypatch):
     args = ["disparity", str(lp), str(rp), "-o", str(out), "--num-disparities", "20", "--min-disparity", "-2",
             "--cost", "sad", "--block-size", "3", "--p1", "10", "--p2", "90", "--uniqueness", "5",
             "--speckle-size", "0", "--speckle-range", "1.5", "--lr-check", "2", "--lr-mode", "opencv", "--paths", "4",
-            "--census-window", "7x5", "--no-subpixel", "--fill-holes", "--memory-limit", "1G", "--threads", "1",
+            "--census-window", "7x5", "--no-subpixel", "--no-fill-holes", "--memory-limit", "1G", "--threads", "1",
             "--no-png"]
     assert main(args) == 0
     p = seen["params"]
     assert (p.num_disparities, p.min_disparity, p.cost, p.block_size, p.p1, p.p2) == (20, -2, "sad", 3, 10, 90)
     assert (p.uniqueness, p.speckle_size, p.speckle_range, p.lr_check, p.paths) == (5.0, 0, 1.5, 2.0, 4)
-    assert (p.census_window, p.subpixel, p.fill_holes, p.memory_limit, p.threads) == ((7, 5), False, True, 2**30, 1)
+    assert (p.census_window, p.subpixel, p.fill_holes, p.memory_limit, p.threads) == ((7, 5), False, False, 2**30, 1)
     assert p.lr_mode == "opencv"
     assert out.exists() and not (tmp_path / "o.png").exists()
 
@@ -87,7 +87,7 @@ def test_usage_errors_exit_2(pair_files, tmp_path, capsys, extra, message):
     ["disparity", "L", "R"],  # -o missing: argparse
     ["disparity", "L", "R", "-o", "o.pfm", "--lr-check", "maybe"],
     ["disparity", "L", "R", "-o", "o.pfm", "--census-window", "9"],
-    ["disparity", "L", "R", "-o", "o.pfm", "--paths", "3"],
+    ["disparity", "L", "R", "-o", "o.pfm", "--paths", "5"],
 ])
 def test_argparse_errors_exit_2(argv):
     assert main(argv) == 2

@@ -55,7 +55,7 @@ def test_bad_values_are_usage_errors(argv, capsys):
 
 def test_flags_are_the_field_names_and_fields_without_help_are_not_flags():
     assert flag_of(SGMParams, "subpixel") == "--no-subpixel"
-    assert flag_of(SGMParams, "fill_holes") == "--fill-holes"
+    assert flag_of(SGMParams, "fill_holes") == "--no-fill-holes"
     names = {f.name for f in option_fields(SGMParams)}
     assert {"threads", "memory_limit", "right_view"}.isdisjoint(names)
     assert {"max_samples", "max_iterations", "max_clusters"}.isdisjoint({f.name for f in option_fields(FusionParams)})

@@ -505,11 +505,19 @@ def test_run_takes_every_matcher_option_of_the_disparity_command(tmp_path, pairs
     monkeypatch.setattr(pipeline.Localizer, "__init__", spy)
     argv = _base(pairs, tmp_path / "o") + [
         "--census-window", "7x5", "--lr-check", "2", "--lr-mode", "opencv", "--speckle-range", "1.5", "--paths", "4",
-        "--fill-holes", "--adaptive-p2", "--no-subpixel", "--max-frames", "1", "--save", "json"]
+        "--no-fill-holes", "--adaptive-p2", "--no-subpixel", "--max-frames", "1", "--save", "json"]
     assert main(argv) == 0
     p = seen[0]
     assert (p.census_window, p.lr_check, p.lr_mode, p.speckle_range, p.paths) == ((7, 5), 2.0, "opencv", 1.5, 4)
-    assert (p.fill_holes, p.adaptive_p2, p.subpixel, p.num_disparities) == (True, True, False, 48)
+    assert (p.fill_holes, p.adaptive_p2, p.subpixel, p.num_disparities) == (False, True, False, 48)
+    # "off" is a value, not "not given": it must override the default (lr_check 1.0) and a config file
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[matcher]\nlr_check = 3\n")
+    seen.clear()
+    argv = _base(pairs, tmp_path / "o2") + ["--lr-check", "off", "--config", str(cfg), "--max-frames", "1",
+                                            "--save", "json"]
+    assert main(argv) == 0
+    assert seen[0].lr_check is None
 
 
 def _fixed_box_yolox(path: Path, size=(240, 160), box=(80, 50, 160, 110), label=2) -> Path:
