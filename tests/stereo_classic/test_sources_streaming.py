@@ -75,7 +75,7 @@ def _peak_mb(root, out):
             "--threads", "1", "-o", str(out)]
     done = subprocess.run([sys.executable, "-c", _PEAK, *argv], check=False, capture_output=True, text=True,
                           timeout=600, env={**os.environ, "NUMBA_NUM_THREADS": "1"})
-    assert done.returncode == 0, done.stderr
+    assert done.returncode in (0, 1), done.stderr  # 1: frames flagged by the pair checks (still written)
     return int(done.stdout.split()[-1])
 
 
