@@ -83,7 +83,7 @@ class GuideFrame:
     clear_clock : int or None, the hour with the longest free distance (ties: the one nearest to 12)
     sectors_deg : (S,) float, haptic sector centres ; haptics : (S,) float in [0, 1], 1 = blocked at the feet
     tracks : list of TrackView seen in this frame ; events : list of Event ; notes : tuple of str
-    obstacle_uv : (M, 2) float64, left-image pixels (column, row) of the obstacle points (for pictures)
+    obstacle_uv : (M, 2) float64, left-image pixels (column, row) of the obstacle points in the corridor
     """
 
     frame: str
@@ -204,7 +204,9 @@ class Guide:
         h, w = disparity.shape
         stride = max(2, round(math.sqrt(h * w / 12000.0)))
         fb = float(rig.focal_px * rig.baseline_m)
-        points = sample_points(disparity, rig, stride=stride, max_depth=max(2.5 * p.look_ahead, 10.0))
+        left = getattr(result, "left", None)
+        points = sample_points(disparity, rig, stride=stride, max_depth=max(2.5 * p.look_ahead, 10.0),
+                               image=left if isinstance(left, np.ndarray) else None)
         codes = {getattr(w, "code", "") for w in getattr(result, "warnings", ()) or ()}
         if codes & _NOT_MEASURED:  # a swapped or mismatched pair: its depths are not the scene's
             notes.append("the left/right pair is swapped or not a pair: nothing measured in this frame")
@@ -218,7 +220,7 @@ class Guide:
         edges = np.linspace(left_b, right_b, p.sectors + 1)
         sectors = (edges[:-1] + edges[1:]) / 2
         obstacles: list[Obstacle] = []
-        grid = dropoff = None
+        grid = dropoff = corridor_mask = None
         blocked = np.zeros((0, 2))
         if plane is None:
             notes.append("ground unknown: no obstacles, drop-offs or clear path in this frame")
@@ -226,6 +228,7 @@ class Guide:
             gp = plane.to_ground(points.xyz)
             area = points.footprint()
             obstacles, grid = find_obstacles(gp, area, p)
+            corridor_mask = grid.mask & (np.abs(gp[:, 0]) < p.corridor_width / 2)
             blocked = grid.cells()
             low = gp[:, 2] < p.step_height / 2                  # the only points a drop-off search looks at
             gl, al = gp[low], area[low]
@@ -271,7 +274,7 @@ class Guide:
         return GuideFrame(frame=name, time_s=time_s, ground=plane, obstacles=obstacles, grid=grid, dropoff=dropoff,
                           hours=hours, free_m=free, clear_clock=clear, sectors_deg=sectors, haptics=haptics,
                           tracks=views, events=events, notes=tuple(notes),
-                          obstacle_uv=points.uv[grid.mask] if grid is not None else np.zeros((0, 2)))
+                          obstacle_uv=points.uv[corridor_mask] if corridor_mask is not None else np.zeros((0, 2)))
 
     def _edge_points(self, d: DropOff) -> np.ndarray:
         """Points along a drop-off's edge, across the corridor (they block the free distance)."""

@@ -50,12 +50,16 @@ class PointSample:
     xyz : (N, 3) float64, metres, camera frame
     stride : int, pixels between samples
     focal_px : float
+    textured : (N,) bool or None
+        Samples where the left image has texture (None: all). Stereo matchers fill texture-less areas (white
+        walls) by propagation, and the ground is fitted to textured samples only.
     """
 
     uv: np.ndarray
     xyz: np.ndarray
     stride: int
     focal_px: float
+    textured: np.ndarray | None = None
 
     def footprint(self) -> np.ndarray:
         """(N,) float64, square metres of surface each sample stands for (facing the camera)."""
@@ -63,10 +67,27 @@ class PointSample:
         return size * size
 
 
-def sample_points(disparity: np.ndarray, rig: RectifiedRig, *, stride: int = 4, max_depth: float = 30.0
-                  ) -> PointSample:
+def _texture(image: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Mean absolute horizontal central difference (grey levels) over a 3x3 grid of offsets 2 px apart."""
+    grey = image if image.ndim == 2 else image[..., 1]          # green: close enough to grey for a texture test
+    h, w = grey.shape[:2]
+    ui, vi = u.astype(np.int64), v.astype(np.int64)
+    total = np.zeros(len(ui))
+    for dv in (-2, 0, 2):
+        rows = np.clip(vi + dv, 0, h - 1)
+        for du in (-2, 0, 2):
+            c = ui + du
+            total += np.abs(grey[rows, np.clip(c + 1, 0, w - 1)].astype(np.float64)
+                            - grey[rows, np.clip(c - 1, 0, w - 1)])
+    return total / 9.0
+
+
+def sample_points(disparity: np.ndarray, rig: RectifiedRig, *, stride: int = 4, max_depth: float = 30.0,
+                  image: np.ndarray | None = None, min_texture: float = 5.0) -> PointSample:
     """Every ``stride``-th pixel of ``disparity`` ((H, W) float32, px, NaN unknown) back-projected with ``rig``;
-    depths beyond ``max_depth`` metres or not positive are dropped."""
+    depths beyond ``max_depth`` metres or not positive are dropped. With the left ``image`` ((H, W) or (H, W, 3)
+    uint8), samples whose neighbourhood changes by less than ``min_texture`` grey levels between neighbouring
+    columns are marked not ``textured``."""
     h, w = disparity.shape
     if (w, h) != tuple(int(v) for v in rig.image_size):
         raise ValueError(f"`disparity` is {w}x{h} but the rig's images are {rig.image_size[0]}x{rig.image_size[1]}")
@@ -77,7 +98,12 @@ def sample_points(disparity: np.ndarray, rig: RectifiedRig, *, stride: int = 4, 
     u, v, d = us[keep].astype(np.float64), vs[keep].astype(np.float64), d[keep]
     xyz = points_from_pixels(u, v, d, rig)
     ok = np.isfinite(xyz[:, 2]) & (xyz[:, 2] > 0) & (xyz[:, 2] <= max_depth)
-    return PointSample(uv=np.column_stack([u[ok], v[ok]]), xyz=xyz[ok], stride=stride, focal_px=float(rig.focal_px))
+    u, v = u[ok], v[ok]
+    textured = None
+    if image is not None and image.shape[:2] == disparity.shape:
+        textured = _texture(image, u, v) >= min_texture
+    return PointSample(uv=np.column_stack([u, v]), xyz=xyz[ok], stride=stride, focal_px=float(rig.focal_px),
+                       textured=textured)
 
 
 @dataclass(frozen=True, eq=False)
@@ -167,7 +193,8 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
     prior : GroundPlane, optional
         The expected plane: hypotheses must be within ``max_tilt_deg / 2`` of its ``up`` and only points
         within 0.5 m of it are used. Without one, ``up`` must be within ``max_tilt_deg`` of straight up
-        ((0, -1, 0)) and only the points below the camera in the lower half of the image are used. The roll
+        ((0, -1, 0)) and only the points below the camera in the lower half of the image are used. Only the
+        ``textured`` points take part when the sample says which they are. The roll
         must stay below ``max_roll_deg``. A plane scores its supporting points minus the points below it: a
         table top or a bed, with the floor under it, is not the floor.
     iterations : int, RANSAC hypotheses; ``rng`` seeds them (deterministic).
@@ -178,13 +205,15 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
         None when fewer than 30 points (or 15 % of the candidates) support the best plane, or the camera
         height it gives is outside :data:`~stereo_classic.guide.params.HEIGHT_RANGE`.
     """
-    xyz = points.xyz
+    xyz, uv = points.xyz, points.uv
+    if points.textured is not None:
+        xyz, uv = xyz[points.textured], uv[points.textured]
     if prior is not None:
         cand = xyz[(np.abs(prior.heights(xyz)) < 0.3) & (xyz[:, 2] < 4.0)]
         ref, limit = prior.up, math.radians(max_tilt_deg / 2)
     else:
-        cy = np.median(points.uv[:, 1]) if len(points.uv) else 0.0
-        cand = xyz[(points.uv[:, 1] > cy) & (xyz[:, 1] > 0.05) & (xyz[:, 2] < 4.0)]
+        cy = np.median(uv[:, 1]) if len(uv) else 0.0
+        cand = xyz[(uv[:, 1] > cy) & (xyz[:, 1] > 0.05) & (xyz[:, 2] < 4.0)]
         ref, limit = np.array([0.0, -1.0, 0.0]), math.radians(max_tilt_deg)
     if len(cand) < 30:
         return None

@@ -5,7 +5,7 @@ Input: points in ground coordinates (lateral m, right positive; forward m; heigh
 between ``min_height`` and ``head_height`` above the ground and within ``look_ahead`` is an obstacle point. They
 are binned into a top-down grid of 10 cm cells; a cell is occupied when its points cover at least
 :data:`MIN_AREA` square metres (so a distant obstacle, seen by fewer pixels, counts the same as a near one, and
-a few stray depths do not), and 8-connected occupied cells form one obstacle. Obstacles reaching into the
+a few stray depths do not), and occupied cells at most one empty cell apart form one obstacle. Obstacles reaching into the
 walking corridor (``corridor_width`` wide, straight ahead) are reported, nearest first.
 
 >>> import numpy as np
@@ -126,7 +126,10 @@ def find_obstacles(ground_points: np.ndarray, area: np.ndarray, params: GuidePar
     flat = ri * cols + ci
     cover = np.bincount(flat, weights=area, minlength=rows * cols).reshape(rows, cols)
     occupied = cover >= MIN_AREA
-    count, labels = cv2.connectedComponents(occupied.astype(np.uint8), connectivity=8)
+    # Cells up to one empty cell apart are one obstacle (a box's front face and its top, seen from above).
+    near = cv2.dilate(occupied.astype(np.uint8), np.ones((3, 3), np.uint8))
+    count, labels = cv2.connectedComponents(near, connectivity=8)
+    labels[~occupied] = 0
     point_label = labels.reshape(-1)[flat]
     keep = point_label > 0
     half = params.corridor_width / 2
