@@ -53,7 +53,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     group = parser.add_argument_group("matcher parameters (docs/matching.md#parameters)")
     add_options(group, SGMParams, defaults=defaults)
     group.add_argument("--threads", type=int, default=defaults.threads, metavar="N",
-                       help="worker threads for the kernels (default: one per CPU; the kernels use at most 2)")
+                       help="worker threads for the kernels (default: every CPU this process may use; the "
+                            "disparity is the same for any count)")
     group.add_argument("--memory-limit", default=None, metavar="BYTES",
                        help="refuse pairs needing more memory, e.g. 4G (default: $STEREO_CLASSIC_MEMORY_LIMIT or "
                             "half the RAM)")
