@@ -2,8 +2,8 @@
 
 Along a strip (the walking corridor, or the corridor turned to another bearing) the points at ground level
 (within half a step of the plane) and the points clearly below it (lower than ``step_height``) are counted in
-10 cm bins of forward distance. A drop-off is where the points below the ground begin while the ground before it
-was seen: its edge is the far end of the ground seen before the lower surface. A lower surface at ``drop`` metres
+10 cm bins of forward distance. A drop-off is where the points below the ground begin, across at least half the
+strip's width (a gap under a bed is not a drop-off), while the ground before it was seen: its edge is the far end of the ground seen before the lower surface. A lower surface at ``drop`` metres
 below a camera ``h`` metres up is hidden behind the edge up to ``edge * (h + drop) / h``; when no ground is seen
 before it (the edge right at the feet, or outside the view), that relation gives the edge instead. Ground that
 just ends without a lower surface in view is not reported: stereo also loses texture-less floors, and a
@@ -11,9 +11,9 @@ warning there would be an invented distance.
 
 >>> import numpy as np
 >>> from stereo_classic.guide import GuideParams
->>> f = np.linspace(1.0, 6.0, 200)
+>>> lat, f = (a.ravel() for a in np.meshgrid(np.linspace(-1, 1, 21), np.linspace(1.0, 6.0, 200)))
 >>> h = np.where(f < 3.0, 0.0, -0.4)                                        # 40 cm down at 3 m
->>> pts = np.column_stack([np.zeros_like(f), f, h])
+>>> pts = np.column_stack([lat, f, h])
 >>> drop = find_dropoff(pts, np.full(len(f), 0.01), GuideParams(), camera_height=1.2)
 >>> round(drop.distance_m, 1), round(drop.drop_m, 2)
 (3.0, 0.4)
@@ -94,9 +94,16 @@ def find_dropoff(ground_points: np.ndarray, area: np.ndarray, params: GuideParam
     below_run = np.convolve(below_area, kernel)[win - 1:win - 1 + nbins]
     level_run = np.convolve(level_area, kernel)[win - 1:win - 1 + nbins]
     start = np.nonzero((below_area >= _MIN_AREA / 3) & (below_run >= MIN_DROP_AREA) & (below_run > 2 * level_run))[0]
-    if start.size == 0:
+    # ... and spreads across half the strip at least: a gap under a bed or a dark hole is not a drop-off.
+    first = None
+    across_below, along_below = across[below], along[below]
+    for s in start[:30]:
+        band = (along_below >= s * BIN_M) & (along_below < s * BIN_M + 0.5)
+        if band.sum() >= 3 and np.ptp(np.percentile(across_below[band], [5, 95])) >= 0.5 * params.corridor_width:
+            first = int(s)
+            break
+    if first is None:
         return None
-    first = int(start[0])
     lower_near = along[below] >= first * BIN_M
     drop = float(-np.median(hgt[below][lower_near]))
     seen = level & (along < (first + 1) * BIN_M)

@@ -10,7 +10,7 @@ from stereo_classic.guide import GuideParams, find_dropoff
 
 def _ground(edge, drop, lateral_shift=0.0, h=1.2):
     """A floor up to ``edge`` metres, then ``drop`` m lower; the lower floor hides behind the edge (seen from h)."""
-    lat, fwd = np.meshgrid(np.arange(-1.5, 1.5, 0.05), np.arange(0.8, 8.0, 0.05))
+    lat, fwd = np.meshgrid(np.arange(-3.0, 3.0, 0.05), np.arange(0.8, 8.0, 0.05))
     lat, fwd = lat.ravel() + lateral_shift, fwd.ravel()
     hidden = (fwd > edge) & (fwd < edge * (h + drop) / h)
     hgt = np.where(fwd < edge, 0.0, -drop)
