@@ -75,3 +75,29 @@ def test_given_height_and_pitch_replace_the_fit():
     assert (both.source, both.height_m, round(both.pitch_deg, 6)) == ("given", 1.0, 5.0)
     only_h = GroundTracker(GuideParams(camera_height=1.1)).update(sample, 36.0)
     assert only_h.height_m == 1.1 and only_h.pitch_deg == pytest.approx(12.0, abs=1.0)
+
+
+def test_textureless_samples_do_not_make_the_ground():
+    """A level 'floor' 0.5 m under the camera from a white wall's propagated depths loses to the textured floor."""
+    sample, _ = _floor_sample(1.3, 12.0, n=1500)
+    rng = np.random.default_rng(3)
+    fake = GroundPlane.from_mounting(0.5, 0.0).to_camera(rng.uniform(-1, 1, 4000), rng.uniform(1, 3.5, 4000))
+    f = 300.0
+    fake_uv = np.column_stack([f * fake[:, 0] / fake[:, 2] + 160, f * fake[:, 1] / fake[:, 2] + 120])
+    textured = np.concatenate([np.ones(len(sample.xyz), bool), np.zeros(len(fake), bool)])
+    mixed = PointSample(np.vstack([sample.uv, fake_uv]), np.vstack([sample.xyz, fake]), 2, f, textured)
+    fit = fit_ground(mixed, 36.0)
+    assert fit is not None and fit.height_m == pytest.approx(1.3, abs=0.03)
+
+
+def test_sample_points_marks_texture():
+    from stereo_classic.guide.ground import sample_points
+    from tests.helpers.scenes import make_rig
+
+    rig = make_rig(40, 30)
+    image = np.full((30, 40), 128, np.uint8)
+    image[:, 20:] = np.random.default_rng(0).integers(0, 255, (30, 20))
+    sample = sample_points(np.full((30, 40), 8.0, np.float32), rig, stride=2, image=image)
+    assert sample.textured.dtype == bool and sample.textured.shape == (len(sample.xyz),)
+    assert not sample.textured[sample.uv[:, 0] < 15].any() and sample.textured[sample.uv[:, 0] > 24].all()
+    assert sample_points(np.full((30, 40), 8.0, np.float32), rig).textured is None

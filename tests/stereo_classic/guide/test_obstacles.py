@@ -51,3 +51,11 @@ def test_free_distances():
     free = free_distances(pts, np.array([0.0, -45.0, 45.0]), 1.0, 5.0)
     assert free[0] == pytest.approx(2.0) and free[1] == pytest.approx(np.hypot(1.5, 1.5)) and free[2] == 5.0
     assert free.dtype == np.float64 and free_distances(np.zeros((0, 2)), np.array([0.0]), 1.0, 4.0)[0] == 4.0
+
+
+def test_front_and_top_of_a_box_are_one_obstacle():
+    front, a1 = _face(-0.3, 0.3, 2.0, 0.0, 0.8)
+    lat, fwd = np.meshgrid(np.arange(-0.3, 0.3, 0.02), np.arange(2.25, 2.4, 0.02))   # the top, past a 1-cell gap
+    top = np.column_stack([lat.ravel(), fwd.ravel(), np.full(lat.size, 0.8)])
+    obs, _ = find_obstacles(np.vstack([front, top]), np.concatenate([a1, np.full(len(top), 4e-4)]), GuideParams())
+    assert len(obs) == 1 and obs[0].depth_m > 0.3
