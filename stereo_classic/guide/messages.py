@@ -13,8 +13,9 @@ Every frame the guide proposes candidates (tracked objects and obstacles, a drop
   moved by more than 15 % (at least 0.3 m) from the one last said;
 * **rate limiting**: at most one message that is not a danger per ``min_interval`` seconds, the most urgent
   (then the nearest) first; what is not said stays a change and may be said later;
-* **danger interrupts**: a danger is said at once (``interrupt=True``: speech stops what it is saying), and
-  an unchanged danger again after ``repeat_after`` seconds.
+* **danger interrupts**: a danger is said at once (the frame's first danger has ``interrupt=True``: speech stops
+  what it is saying; the frame's other dangers follow it), and an unchanged danger again after ``repeat_after``
+  seconds.
 
 >>> policy = MessagePolicy(GuideParams())
 >>> c = Candidate("object", "person", 3, 2.4, 2.2, 60.0, 0.8, None, in_corridor=False)
@@ -217,7 +218,8 @@ class MessagePolicy:
                 distance_m=c.distance_m if c.kind != "clear_path" else None,
                 nearest_m=c.nearest_m,
                 clock=clock, bearing_deg=c.bearing_deg, approach_mps=c.approach_mps, ttc_s=c.ttc_s, priority=prio,
-                text=self._text(c, clock, metres, approaching), interrupt=prio == "danger"))
+                text=self._text(c, clock, metres, approaching),
+                interrupt=prio == "danger" and not any(e.interrupt for e in events)))
             self.said[c.key] = _Said(clock, c.bearing_deg, metres, approaching, prio, time_s)
             self.last_time = time_s
         live = {c.key for c in candidates} | set(alive or ())

@@ -57,6 +57,8 @@ def test_rate_limit_and_danger_interrupts():
     assert [(e.priority, e.interrupt) for e in danger] == [("danger", True)]
     again = policy.select([_c(0.7, 0.0, tid=3)], frame="3", time_s=1.7)   # repeated after repeat_after
     assert len(again) == 1 and again[0].priority == "danger"
+    two = policy.select([_c(0.6, 0.0, tid=4), _c(0.8, 30.0, tid=5)], frame="3b", time_s=1.8)
+    assert [(e.track_id, e.interrupt) for e in two] == [(4, True), (5, False)]   # the first cuts in, not each other
     later = policy.select([_c(4.0, 0.0, corridor=False, tid=1)], frame="4", time_s=4.0)
     assert [e.track_id for e in later] == [1]                    # not said earlier: still a change
 
