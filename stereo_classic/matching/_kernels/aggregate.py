@@ -59,6 +59,7 @@ from stereo_classic.matching._kernels.intrinsics import (
     add16,
     and16,
     min16,
+    pick16,
     popxor16,
     sub16,
 )
@@ -336,7 +337,7 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
     shift = cost.shift
     cmax = cost.cmax
     cinv = cost.invalid_cost
-    gmul = cost.grad_mul
+    gmul = np.int32(cost.grad_mul)
     p1 = settings.p1
     p2 = settings.p2
     adaptive = settings.adaptive_p2
@@ -473,7 +474,7 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                         C[k] = np.int16(sv32 if sv32 < cmax else cmax)
                 else:  # census + the window mean of the gradient differences
                     for k in range(D):
-                        C[k] = add16(C[k], np.int16((hsum[k] * gmul) >> GRAD_SHIFT))
+                        C[k] = add16(C[k], np.int16((hsum[k] * gmul) >> GRAD_SHIFT))  # int32 lanes
             # disparities whose match is outside the right image: k outside [k_lo, k_hi]
             if k_lo > 0 or k_hi < D - 1:
                 for k in range(D):
@@ -644,7 +645,7 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                     continue
                 n = k_hi - k_lo + 1
                 b0 = db + k_lo
-                bk = k_lo  # first index of the minimum: usually near the start, a scalar scan wins
+                bk = k_lo  # first index of the minimum: a scalar scan (measured faster than 16-wide block minima)
                 while bk < k_hi and dst[_U(db + bk)] != ns:
                     bk += 1
                 best[x] = bk
@@ -656,15 +657,15 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                         sv = dst[_U(b0 + j)]
                         old = rv[_U(q0 + j)]
                         lt = sv < old
-                        rv[_U(q0 + j)] = sv if lt else old
-                        rd[_U(q0 + j)] = np.int16(k_lo + j) if lt else rd[_U(q0 + j)]
+                        rv[_U(q0 + j)] = min16(sv, old)
+                        rd[_U(q0 + j)] = pick16(lt, np.int16(k_lo + j), rd[_U(q0 + j)])
                 else:
                     for j in range(n):
                         sv = dst[_U(b0 + j)]
                         old = rv[_U(q0 + j)]
                         le = sv <= old
-                        rv[_U(q0 + j)] = sv if le else old
-                        rd[_U(q0 + j)] = np.int16(k_lo + j) if le else rd[_U(q0 + j)]
+                        rv[_U(q0 + j)] = min16(sv, old)
+                        rd[_U(q0 + j)] = pick16(le, np.int16(k_lo + j), rd[_U(q0 + j)])
                 if uniq > 0.0:
                     m2 = big
                     for k in range(k_lo, bk - 1):

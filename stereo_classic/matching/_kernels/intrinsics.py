@@ -12,7 +12,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["add16", "sub16", "min16", "max16", "absdiff16", "and16", "shr16", "popcnt16", "popxor16"]
+__all__ = ["add16", "sub16", "min16", "max16", "absdiff16", "and16", "shr16", "popcnt16", "popxor16", "pick16"]
 
 
 def _check_int16(*args: types.Type) -> None:
@@ -53,6 +53,22 @@ def min16(typingctx, a, b):
         return builder.select(builder.icmp_signed("<", a, b), a, b)
 
     return types.int16(types.int16, types.int16), codegen
+
+
+@intrinsic
+def pick16(typingctx, take, a, b):
+    """``a if take else b`` for int16 (a plain select: vectorises where numba's conditional expression did not)."""
+    _check_int16(a, b)
+    if take != types.boolean:
+        raise TypeError(f"pick16 needs a boolean condition, got {take}")
+
+    def codegen(context, builder, signature, args):
+        cond, a, b = args
+        if cond.type != ir.IntType(1):
+            cond = builder.trunc(cond, ir.IntType(1))
+        return builder.select(cond, a, b)
+
+    return types.int16(types.boolean, types.int16, types.int16), codegen
 
 
 @intrinsic
