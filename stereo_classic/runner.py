@@ -32,6 +32,7 @@ import signal
 import sys
 import threading
 from collections.abc import Callable, Iterable
+from concurrent.futures import Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
 from typing import Any, Self
 
@@ -312,6 +313,29 @@ class _Collector:
         self.bar.update(1)
 
 
+def _run_overlapped(refs: Iterable[FrameRef], processor: FrameProcessor, take: Callable[[FrameOutput], None]) -> None:
+    """Process the frames here, one after another, while a writer thread writes the frame before.
+
+    The files of frame N are encoded and written while frame N + 1 is read and matched, so a frame costs the
+    slower of the two, not their sum; frames are still written one at a time and in order (the same bytes as
+    writing them in turn). A write that fails raises here at the next frame or at the end. Ctrl-C or SIGTERM
+    (raised in this, the main thread) waits for the write in progress, so that frame is complete and counted.
+    """
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="stereo-writer") as pool:
+        pending: Future | None = None
+        try:
+            for ref in refs:
+                out = processor.process_ref(ref)
+                if pending is not None:
+                    pending.result()
+                pending = pool.submit(take, out)
+        finally:
+            if pending is not None:
+                wait([pending])
+        if pending is not None:
+            pending.result()
+
+
 def run_source(source: Source, writer: FrameWriter, *, params_for: Callable[[int | None], SGMParams],
                rig: RectifiedRig | None = None, detector: Any = None, detector_name: str | None = None,
                fusion: FusionParams | None = None, seed: int = 0, classes: Iterable[str] | None = None,
@@ -380,8 +404,7 @@ def run_source(source: Source, writer: FrameWriter, *, params_for: Callable[[int
     try:
         with _TermAsInterrupt():
             if executor is None:
-                for ref in source.refs(skip):
-                    collector.take(processor.process_ref(ref))
+                _run_overlapped(source.refs(skip), processor, collector.take)
             else:
                 executor.run(source.refs(skip), processor, collector.take)
     except KeyboardInterrupt as exc:

@@ -107,3 +107,57 @@ def test_records_name_the_source_files_and_scaled_runs_report_input_pixels(tmp_p
     # FixedBoxes returns the same pixel box for any image: at half size it covers twice the input pixels
     assert full["objects"][0]["box_xyxy"] == [20.0, 15.0, 60.0, 45.0]
     assert half["objects"][0]["box_xyxy"] == [40.0, 30.0, 120.0, 90.0]
+
+
+# --------------------------------------------------------------------------------------------------
+# overlap: frame N is written while frame N + 1 is matched
+# --------------------------------------------------------------------------------------------------
+class _Processor:
+    def __init__(self, started_writing, fail_at=None):
+        self.started_writing, self.fail_at, self.seen_write_while_processing = started_writing, fail_at, []
+
+    def process_ref(self, ref):
+        if ref > 0:  # frame ref is processed while frame ref - 1 is being written
+            self.seen_write_while_processing.append(self.started_writing[ref - 1].wait(timeout=30))
+        return ref
+
+
+def test_frames_are_written_while_the_next_is_processed_in_order():
+    import threading
+
+    from stereo_classic.runner import _run_overlapped
+
+    started = [threading.Event() for _ in range(4)]
+    release = [threading.Event() for _ in range(4)]
+    written = []
+    proc = _Processor(started)
+
+    def take(out):
+        started[out].set()
+        if out < 3:
+            # the write of frame `out` only finishes once frame out + 1 has been processed: proves the overlap
+            release[out].wait(timeout=30)
+        written.append(out)
+
+    def process_ref(ref):
+        out = proc.process_ref(ref)
+        if ref > 0:
+            release[ref - 1].set()
+        return out
+
+    proc_wrapper = type("P", (), {"process_ref": staticmethod(process_ref)})()
+    _run_overlapped(iter(range(4)), proc_wrapper, take)
+    assert written == [0, 1, 2, 3]
+    assert proc.seen_write_while_processing == [True, True, True]
+
+
+def test_a_failing_write_stops_the_run_with_its_error():
+    from stereo_classic.runner import _run_overlapped
+
+    def take(out):
+        if out == 1:
+            raise OSError("disk full")
+
+    proc = type("P", (), {"process_ref": staticmethod(lambda ref: ref)})()
+    with pytest.raises(OSError, match="disk full"):
+        _run_overlapped(iter(range(5)), proc, take)
