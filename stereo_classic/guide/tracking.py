@@ -24,7 +24,6 @@ from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from stereo_classic.guide.obstacles import clock_of
 from stereo_classic.guide.params import GuideParams
@@ -149,6 +148,9 @@ class Tracker:
                     d = math.hypot(m.lateral_m - px, m.forward_m - pz)
                     if d <= self._gate(tr, m, dt):
                         cost[i, j] = d
+            # Imported here: scipy.optimize adds ~34 MB to every command that imports the CLI (run included).
+            from scipy.optimize import linear_sum_assignment
+
             rows, cols = linear_sum_assignment(cost)
             for i, j in zip(rows, cols):
                 if cost[i, j] < 1e6:
