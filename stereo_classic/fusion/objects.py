@@ -85,6 +85,10 @@ class LocalizedObjects:
         A nearer consistent set off the box centre (an occluder entering from the box edge, e.g. a hand in
         front of a chair) would have won; the distance is that of the set covering the object behind it
         (``FusionParams.occluder_ratio``, ``occluder_offset``). Default all False.
+    nearest_m : (N,) float64
+        Depth of the object's nearest surface, metres: the 10th percentile of the inliers' depth (a walking
+        person or a robot reaches the near part of a car first, not its middle). NaN where there is no
+        distance; default all NaN.
     """
 
     labels: tuple[str, ...]
@@ -100,9 +104,14 @@ class LocalizedObjects:
     status: tuple[str, ...]
     method: str = "ransac"
     occluded: np.ndarray | None = None
+    nearest_m: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.labels)
+        nearest = np.full(n, np.nan) if self.nearest_m is None else np.asarray(self.nearest_m, dtype=np.float64)
+        if nearest.shape != (n,):
+            raise FusionInputError(f"LocalizedObjects.nearest_m must be an array of shape ({n},), got {nearest.shape}")
+        object.__setattr__(self, "nearest_m", nearest)
         occluded = np.zeros(n, dtype=bool) if self.occluded is None else np.asarray(self.occluded)
         if occluded.shape != (n,) or occluded.dtype != bool:
             raise FusionInputError(f"LocalizedObjects.occluded must be a bool array of shape ({n},), got "
@@ -139,6 +148,7 @@ class LocalizedObjects:
             xyz=self.xyz[rows], inliers=self.inliers[rows], valid_pixels=self.valid_pixels[rows],
             inlier_ratio=self.inlier_ratio[rows], spread_m=self.spread_m[rows],
             status=tuple(self.status[i] for i in rows), method=self.method, occluded=self.occluded[rows],
+            nearest_m=self.nearest_m[rows],
         )
 
     @property
@@ -170,7 +180,7 @@ class LocalizedObjects:
         return dataclasses.replace(
             self, status=status_, distance_m=self.distance_m * nan, xyz=self.xyz * nan[:, None],
             inliers=np.where(picked, 0, self.inliers), inlier_ratio=self.inlier_ratio * nan,
-            spread_m=self.spread_m * nan, occluded=self.occluded & ~picked)
+            spread_m=self.spread_m * nan, occluded=self.occluded & ~picked, nearest_m=self.nearest_m * nan)
 
     @classmethod
     def empty(cls, method: str = "ransac") -> LocalizedObjects:
@@ -206,6 +216,7 @@ class LocalizedObjects:
                 "valid_pixels": int(self.valid_pixels[i]),
                 "inlier_ratio": _round(float(self.inlier_ratio[i]), 4),
                 "spread_m": _round(float(self.spread_m[i]), 3),
+                "nearest_m": _round(float(self.nearest_m[i]), 3),
                 "occluded": bool(self.occluded[i]),
                 "method": self.method,
             })

@@ -401,3 +401,18 @@ def test_pov_hands_chair_is_not_the_hand(shared_data, yolox_nano):
     chair = objs[np.array([label == "chair" for label in objs.labels])]
     assert len(chair) == 1 and chair.status == ("ok",) and chair.occluded[0]
     assert 1.3 < chair.distance_m[0] < 2.0  # the chair behind the hand (the hand is at 0.48 m)
+
+
+def test_nearest_surface_is_the_tenth_percentile_of_the_inliers_depth():
+    """A surface slanted in depth (disparity 20.0 .. 21.9 px across the box): the nearest surface is nearer than the
+    centroid and equals the 10th percentile of the inliers' depth; no distance, no nearest surface."""
+    rig = make_rig(40, 20, focal_px=500.0, baseline_m=0.1)
+    d = np.tile(np.linspace(20.0, 21.9, 40, dtype=np.float32), (20, 1))
+    objs = localize(np.array([[0, 0, 40, 20]]), d, rig, box_shrink=0.0, tolerance_px=3.0, centre_sigma=0)
+    z = 500 * 0.1 / d.astype(np.float64)
+    assert objs.status == ("ok",)
+    assert objs.nearest_m[0] == pytest.approx(np.percentile(z, 10), rel=1e-6)
+    assert objs.nearest_m[0] < objs.distance_m[0]
+    assert objs.to_json()[0]["nearest_m"] == pytest.approx(objs.nearest_m[0], abs=1e-3)
+    gone = objs.with_status([0], "beyond_range")
+    assert np.isnan(gone.nearest_m[0]) and np.isnan(objs[[0]].nearest_m).sum() == 0
