@@ -346,7 +346,8 @@ def _note_first_compile() -> None:
     except AttributeError:
         return
     if not os.path.exists(index):
-        _log.info("compiling the stereo kernels once (about 10 s on 2 cores); later runs load them from numba's cache")
+        _log.info("compiling the stereo kernels once (see docs/matching.md, \"First call\"); later runs load them from "
+                  "numba's cache")
 
 
 def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_disparity: int = 0,
