@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import cv2
 import numpy as np
+from numba import njit
 
 __all__ = ["filter_speckles", "fill_holes"]
 
@@ -69,6 +70,36 @@ def filter_speckles(disparity: np.ndarray, *, max_size: int, max_diff: float) ->
     return out
 
 
+@njit(cache=True, nogil=True)
+def _background_fill(disp, filled, still_unknown):  # pragma: no cover - numba
+    """Per row: each unknown pixel takes the smaller of the nearest known values to its left and right (the one
+    that exists); rows without any known pixel get 0 and ``still_unknown``."""
+    height, width = disp.shape
+    inf = np.float32(np.inf)
+    for y in range(height):
+        last = inf
+        for x in range(width):  # left neighbour
+            v = disp[y, x]
+            if v == v:
+                last = v
+                filled[y, x] = v
+            else:
+                filled[y, x] = last
+        nxt = inf
+        for x in range(width - 1, -1, -1):  # right neighbour, the smaller of the two
+            v = disp[y, x]
+            if v == v:
+                nxt = v
+            else:
+                b = filled[y, x]
+                b = nxt if nxt < b else b
+                unknown = b == inf
+                still_unknown[y, x] = unknown
+                filled[y, x] = np.float32(0.0) if unknown else b
+                continue
+            still_unknown[y, x] = False
+
+
 def fill_holes(disparity: np.ndarray) -> np.ndarray:
     """Fill unknown pixels from the background side of their row, then smooth the filled pixels.
 
@@ -91,19 +122,9 @@ def fill_holes(disparity: np.ndarray) -> np.ndarray:
     valid = np.isfinite(disp)
     if valid.all() or not valid.any():
         return disp.copy()
-    height, width = disp.shape
-    columns = np.broadcast_to(np.arange(width), disp.shape)
-    left_idx = np.maximum.accumulate(np.where(valid, columns, -1), axis=1)
-    right_idx = np.minimum.accumulate(np.where(valid, columns, width)[:, ::-1], axis=1)[:, ::-1]
-    safe = np.where(valid, disp, np.inf)
-    left_val = np.take_along_axis(safe, np.clip(left_idx, 0, width - 1), axis=1)
-    right_val = np.take_along_axis(safe, np.clip(right_idx, 0, width - 1), axis=1)
-    left_val[left_idx < 0] = np.inf
-    right_val[right_idx >= width] = np.inf
-    background = np.minimum(left_val, right_val)
-    filled = np.where(valid, disp, background).astype(np.float32)
-    still_unknown = ~np.isfinite(filled)
-    filled[still_unknown] = 0.0
+    filled = np.empty_like(disp)
+    still_unknown = np.empty(disp.shape, dtype=np.bool_)
+    _background_fill(np.ascontiguousarray(disp), filled, still_unknown)
     median = cv2.medianBlur(filled, 3)
     holes = ~valid & ~still_unknown
     out = disp.copy()
