@@ -28,9 +28,17 @@ from tests.helpers.scenes import make_rig, planted_scene
 
 @pytest.fixture(scope="module")
 def cluster():
-    with distributed.LocalCluster(processes=True, n_workers=2, threads_per_worker=1, dashboard_address=":0",
-                                  silence_logs=logging.ERROR) as local:
-        yield local
+    # The scheduler lives in this process; its log lines about the worker killed on purpose are expected, and
+    # its handler may point at a capture stream pytest has closed: keep it quiet for the module.
+    dask_log = logging.getLogger("distributed")
+    level = dask_log.level
+    dask_log.setLevel(logging.CRITICAL)
+    try:
+        with distributed.LocalCluster(processes=True, n_workers=2, threads_per_worker=1, dashboard_address=":0",
+                                      silence_logs=logging.CRITICAL) as local:
+            yield local
+    finally:
+        dask_log.setLevel(level)
 
 
 def _folder(path: Path) -> dict[str, bytes]:
