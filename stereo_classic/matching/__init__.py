@@ -7,7 +7,7 @@ Modules, in the order the data flows:
 * ``matcher``: ``compute_disparity`` / ``StereoMatcher`` (input checks, grey conversion, memory
   budget, the kernels, post-processing) and the result object ``DisparityMap``.
 * ``postprocess``: ``filter_speckles`` and ``fill_holes`` on float32 disparity maps.
-* ``_kernels``: the numba kernels (``core``: the fused passes; ``cost``: census and SAD;
+* ``_kernels``: the numba kernels (``core``: the fused passes; ``cost``: census, SAD and the gradient term;
   ``intrinsics``: int16 arithmetic as LLVM operations); ``reference``: their slow numpy reference.
 
 >>> import numpy as np

@@ -77,8 +77,8 @@ class DisparityMap:
         Pixel counts: "pixels" (H * W), "valid" (finite in ``disparity``), "unknown_matcher" (NaN
         out of the matcher) = "no_candidate" (columns where no disparity of the range lands inside
         the right image) + "failed_lr" + "failed_uniqueness" (exact counts from the kernels), "short_range"
-        (border pixels set unknown because they could search less than ``border_reach`` of the range), "speckle_removed",
-        "filled" (by ``fill_holes``), "border" (pixels in the image bands where the full disparity
+        (border pixels set unknown because they could search less than ``border_reach`` of the range),
+        "speckle_removed", "filled" (by ``fill_holes``), "border" (pixels in the image bands where the full disparity
         range does not fit, matched with the range that does) and "border_valid".
     filled : (H, W) bool or None
         True where ``disparity`` holds a value filled in by ``fill_holes`` (a guess from the background
@@ -505,7 +505,8 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
 
 
 def compute_disparity(left: Any, right: Any, params: SGMParams | None = None, **overrides: Any) -> DisparityMap:
-    """Disparity of a rectified stereo pair by 8-path (or 4-path) semi-global matching.
+    """Disparity of a rectified stereo pair by semi-global matching (default: census + x-gradient cost, 3 paths,
+    left-right check, holes filled and marked in ``DisparityMap.filled``; see ``SGMParams``).
 
     Parameters
     ----------
