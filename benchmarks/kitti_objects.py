@@ -16,7 +16,8 @@ Methods (all on the same detections, the same rig, the same disparity range):
   no filled pixels) inside the box shrunk to half its width and height about its centre (what DepthAI's
   SpatialLocationCalculator reports, without its depth thresholds).
 
-For the two fusion methods the nearest surface is the 10th percentile of the depths of the fusion's inliers.
+For the two fusion methods the nearest surface is the fusion's own `LocalizedObjects.nearest_m` (the 10th
+percentile of the depths of its inliers).
 
 ``python -m benchmarks.kitti_objects [--data DIR] [--out FILE.md]`` prints (or writes) the Markdown table.
 """
@@ -25,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib
 import logging
 import math
 import sys
@@ -125,48 +125,6 @@ def half_box_median(disparity: np.ndarray, box: Sequence[float], rig: Any) -> tu
     return float(np.median(rig.focal_px * rig.baseline_m / known)), int(known.size)
 
 
-def _fusion_inlier_depths(detections: Any, disparity: np.ndarray, rig: Any, params: Any, seed: int,
-                          objects: Any) -> tuple[list[np.ndarray | None], str]:
-    """Per detection, the depths (metres) of the fusion's inliers, found by running ``localize``'s steps again.
-
-    ``LocalizedObjects`` has no nearest-surface field, so this repeats the loop of
-    :func:`stereo_classic.fusion.localize` with its own helpers and the same seed, and checks that it lands on the
-    same distances as ``objects``; where it cannot (the helpers changed), it returns [] and the reason.
-    """
-    try:
-        from stereo_classic.fusion.params import as_generator
-
-        lz = importlib.import_module("stereo_classic.fusion.localize")  # the module, not the function it exports
-        disp = lz._disparity_array(disparity)
-        pinhole = lz._pinhole(rig, disp.shape)
-        xyxy = lz.boxes_and_meta(detections)[0]
-        gen = as_generator(seed)
-        limits = lz._disparity_limits(pinhole, *params.depth_range)
-        out: list[np.ndarray | None] = []
-        for i in range(xyxy.shape[0]):
-            depths = lz._box_depths(disp, xyxy[i], params, limits, pinhole.doffs)
-            if isinstance(depths, str) or depths.d.size < params.min_pixels:
-                out.append(None)
-                continue
-            if params.method == "ransac":
-                mask = lz._ransac_members(depths, params, gen, pinhole.doffs)[0]
-                if mask is None:
-                    out.append(None)
-                    continue
-                z = lz._points(depths, mask, pinhole)[2]
-                centre = float(z.mean())
-            else:
-                z = lz._points(depths, None, pinhole)[2]
-                centre = float(np.median(z))
-            want = float(objects.distance_m[i])
-            if objects.status[i] == "ok" and math.isfinite(want) and abs(centre - want) > 1e-6:
-                return [], f"re-running the fusion's steps gave {centre:.4f} m instead of {want:.4f} m"
-            out.append(z)
-        return out, ""
-    except Exception as exc:  # noqa: BLE001 - the fusion's private helpers changed: reported as missing
-        return [], f"the fusion's steps could not be repeated ({type(exc).__name__}: {exc})"
-
-
 def _pct(value: float | None, ref: float | None) -> float | None:
     if value is None or ref is None or not math.isfinite(value) or ref <= 0:
         return None
@@ -261,18 +219,12 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
     # DepthAI's median reads measured pixels only: values the matcher filled into holes are not measurements
     our_disp = np.asarray(getattr(result.disparity, "measured_disparity", result.disparity.disparity))
     fused: dict[str, Any] = {"run": result.objects}
-    inlier_z: dict[str, list[np.ndarray | None]] = {}
-    nearest_reason = ""
     if "ocv-3way" in methods:
         ocv = next(m for m in opencv_methods() if m.name == "ocv-3way")
         setup = Setup(num_disparities=params.num_disparities, min_disparity=params.min_disparity,
                       block_size=params.block_size, threads=threads)
         ocv_disp = ocv.prepare(setup)(scene.left, scene.right)
         fused["ocv-3way"] = localize(dets, ocv_disp, rig, fusion, rng=seed)
-        inlier_z["ocv-3way"], nearest_reason = _fusion_inlier_depths(dets, ocv_disp, rig, fusion, seed,
-                                                                     fused["ocv-3way"])
-    inlier_z["run"], reason = _fusion_inlier_depths(dets, result.disparity, rig, fusion, seed, result.objects)
-    nearest_reason = reason or nearest_reason
 
     det_labels = list(dets.labels) if dets is not None else []
     det_boxes = np.asarray(dets.xyxy, dtype=np.float64).reshape(-1, 4) if dets is not None else np.zeros((0, 4))
@@ -300,9 +252,7 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
                     objs = fused[name]
                     d = _num(objs.distance_m[di])
                     entry: dict[str, Any] = {"distance_m": d, "status": str(objs.status[di]), "error_pct": _pct(d, ref)}
-                    z = inlier_z.get(name) or []
-                    near = (float(np.percentile(z[di], 10)) if di < len(z) and z[di] is not None
-                            and objs.status[di] == "ok" else None)
+                    near = _num(objs.nearest_m[di]) if objs.status[di] == "ok" else None
                     entry["nearest_m"] = near
                     entry["nearest_error_pct"] = _pct(near, ref10)
                 else:  # depthai-median
@@ -333,7 +283,7 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
                      "(reference_p10_m) of their depth along the left camera's optical axis (z + P2[2,3])",
         "bar_pct": BAR_PCT, "max_truncation": MAX_TRUNCATION, "min_iou": MIN_IOU,
         "objects": objects, "unmatched_detections": unmatched, "bar": bar,
-        "nearest": {"available": not nearest_reason, "reason": nearest_reason},
+        "nearest": {"available": True, "reason": ""},  # LocalizedObjects.nearest_m: the fusion reports it
     }
 
 

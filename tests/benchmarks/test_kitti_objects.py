@@ -104,7 +104,7 @@ def test_every_labelled_car_has_a_lidar_reference_and_is_matched_or_reported(kit
 
 def test_fusion_nearest_surface_and_the_bar(kitti_result):
     res = kitti_result
-    assert res["nearest"]["available"], res["nearest"]["reason"]  # localize's steps and this benchmark agree
+    assert res["nearest"]["available"], res["nearest"]["reason"]  # the fusion reports its nearest surface
     for o in res["objects"]:
         for name in ("run", "ocv-3way"):
             entry = o["methods"].get(name)
