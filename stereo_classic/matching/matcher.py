@@ -400,33 +400,23 @@ def _resolve_params(params: SGMParams | None, overrides: dict[str, Any]) -> SGMP
     return params.replace(**overrides) if overrides else params
 
 
-def _no_candidate_columns(shape: tuple[int, int], params: SGMParams) -> np.ndarray:
-    """(W,) bool: columns where no disparity of the range maps inside the right image."""
-    width = shape[1]
+def _reach(width: int, params: SGMParams) -> np.ndarray:
+    """(W,) int: per column, how many disparities of the range map inside the right image (``num_disparities``
+    in the interior, fewer in the border bands, 0 where none does)."""
     x = np.arange(width)
-    return (x - params.min_disparity < 0) | (x - params.max_disparity > width - 1)
+    first = np.maximum(0, x - params.min_disparity - width + 1)
+    last = np.minimum(params.num_disparities - 1, x - params.min_disparity)
+    return np.maximum(0, last - first + 1)
 
 
-def _short_reach_columns(shape: tuple[int, int], params: SGMParams) -> np.ndarray:
+def _short_reach(reach: np.ndarray, params: SGMParams) -> np.ndarray:
     """(W,) bool: columns whose pixels can search fewer than ``border_reach * num_disparities`` disparities.
 
     At the image borders part of the range maps outside the right image; where most of it does, the true
     match is likely out of reach and the winner of what is left is not a measurement (on the OAK-D scenes
     such pixels came out at d ~ 0, "far away", at the left edge of a room).
     """
-    width = shape[1]
-    x = np.arange(width)
-    first = np.maximum(0, x - params.min_disparity - width + 1)
-    last = np.minimum(params.num_disparities - 1, x - params.min_disparity)
-    reach = np.maximum(0, last - first + 1)
     return (reach > 0) & (reach < params.border_reach * params.num_disparities)
-
-
-def _border_mask(shape: tuple[int, int], params: SGMParams) -> np.ndarray:
-    """(W,) bool: columns where the full disparity range does not fit in the right image."""
-    width = shape[1]
-    x = np.arange(width)
-    return (x - params.max_disparity < 0) | (x - params.min_disparity > width - 1)
 
 
 def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None = None,
@@ -458,7 +448,8 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
 
     disparity = np.asarray(disparity, dtype=np.float32)
     unknown_matcher = int(np.isnan(disparity).sum())
-    short = _short_reach_columns(disparity.shape, params)
+    reach = _reach(disparity.shape[1], params)
+    short = _short_reach(reach, params)
     short_range = 0
     if short.any():  # border pixels that could search too little of the range: not a measurement
         short_range = int(np.isfinite(disparity[:, short]).sum())
@@ -475,12 +466,12 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         disparity = fill_holes(disparity)
         filled_mask = np.isfinite(disparity) & ~before
         filled = int(filled_mask.sum())
-    border = _border_mask(disparity.shape, params)
+    border = reach < params.num_disparities  # the full range does not fit: matched with the range that does
     t3 = time.perf_counter()
 
     # The kernels mark NaN: pixels with no candidate at all, and those failing uniqueness or the LR check
     # (which they count exactly).
-    no_candidate = int(_no_candidate_columns(disparity.shape, params).sum()) * disparity.shape[0]
+    no_candidate = int((reach == 0).sum()) * disparity.shape[0]  # no disparity of the range fits
     timings = {"prepare": (t1 - t0) * 1e3}
     timings.update({k: float(v) for k, v in dict(core_timings).items() if not k.startswith("n_")})
     timings["postprocess"] = (t3 - t2) * 1e3

@@ -56,25 +56,6 @@ def cost_volume_reference(left, right, *, cost="census", min_disparity=0, num_di
     shift, cmax = cost_scale(cost, block_size, census_window, p2)
     cinv = cmax + 2 * (p2 >> shift) + 1
     out = np.full((H, W, D), cinv, np.int64)
-    if cost == "census+grad":
-        census = cost_volume_reference(left, right, cost="census", min_disparity=min_disparity,
-                                       num_disparities=num_disparities, census_window=census_window, p2=p2)
-        sl, sr = _sobel_reference(left), _sobel_reference(right)
-        r = block_size // 2
-        mul = round(1024 / (block_size * block_size))
-        for y in range(H):
-            for x in range(W):
-                for k in range(D):
-                    xr = x - min_disparity - k
-                    if not 0 <= xr < W:
-                        continue
-                    total = 0
-                    for dy in range(-r, r + 1):
-                        for dx in range(-r, r + 1):
-                            yy = min(max(y + dy, 0), H - 1)
-                            total += abs(sl[yy, min(max(x + dx, 0), W - 1)] - sr[yy, min(max(xr + dx, 0), W - 1)])
-                    out[y, x, k] = census[y, x, k] + ((total * mul) >> 10)
-        return out
     if cost == "census":
         cl = census_reference(left, census_window)
         cr = census_reference(right, census_window)
@@ -85,6 +66,20 @@ def cost_volume_reference(left, right, *, cost="census", min_disparity=0, num_di
                     if 0 <= xr < W:
                         out[y, x, k] = bin(int(cl[y, x]) ^ int(cr[y, xr])).count("1")
         return out
+    if cost == "census+grad":  # census + the window mean of |sobel_L - sobel_R| (no intensity term)
+        census = cost_volume_reference(left, right, cost="census", min_disparity=min_disparity,
+                                       num_disparities=num_disparities, census_window=census_window, p2=p2)
+        sums = _window_sums(left, right, min_disparity, D, block_size, intensity=False)
+        mul = round(1024 / (block_size * block_size))
+        return np.where(sums >= 0, census + ((sums * mul) >> 10), out)
+    sums = _window_sums(left, right, min_disparity, D, block_size, intensity=True)
+    return np.where(sums >= 0, np.minimum(sums >> shift, cmax), out)
+
+
+def _window_sums(left, right, min_disparity, D, block_size, *, intensity) -> np.ndarray:
+    """(H, W, D) int64 window sums of ``|sobel_L - sobel_R|`` (+ ``|I_L - I_R| // 4`` with ``intensity``), borders
+    replicated; -1 where the match lies outside the right image."""
+    H, W = left.shape
     sl, sr = _sobel_reference(left), _sobel_reference(right)
     il, ir = left.astype(np.int64), right.astype(np.int64)
     r = block_size // 2
@@ -95,6 +90,7 @@ def cost_volume_reference(left, right, *, cost="census", min_disparity=0, num_di
     def cx(v):
         return min(max(v, 0), W - 1)
 
+    out = np.full((H, W, D), -1, np.int64)
     for y in range(H):
         for x in range(W):
             for k in range(D):
@@ -105,8 +101,10 @@ def cost_volume_reference(left, right, *, cost="census", min_disparity=0, num_di
                 for dy in range(-r, r + 1):
                     for dx in range(-r, r + 1):
                         yy, xl, xrr = cy(y + dy), cx(x + dx), cx(xr + dx)
-                        total += abs(sl[yy, xl] - sr[yy, xrr]) + abs(il[yy, xl] - ir[yy, xrr]) // 4
-                out[y, x, k] = min(total >> shift, cmax)
+                        total += abs(sl[yy, xl] - sr[yy, xrr])
+                        if intensity:
+                            total += abs(il[yy, xl] - ir[yy, xrr]) // 4
+                out[y, x, k] = total
     return out
 
 
