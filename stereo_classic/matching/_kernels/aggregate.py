@@ -177,7 +177,7 @@ class ThreadBuffers(NamedTuple):
         SAD window sum of the current pixel.
     rrev : (4 * (W + D - 1),) uint16
         Census code quarters of the current right row, reversed ((1,) for SAD).
-    srev, irev : (W + 2h + D - 1,) int16
+    srev, irev : (2 * (W + 2h + D - 1),) int16
         SAD channels of a right row, reversed ((1,) for census).
     right_sums, right_k : (W + D - 1,) int16
         Right view: best sum and its disparity index per right pixel.
@@ -419,9 +419,9 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                     rrev[q * nrr + j] = rcode[y, c, q]
         if kind != 0:
             if r == 0 and init_cost:
-                sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D)
+                sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D, kind == 1)
             else:
-                sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, D)
+                sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, D, kind == 1)
         for k in range(D):
             PH[k + 1] = zero
         MH[0] = zero

@@ -1,8 +1,9 @@
 """The kernels' Python side: worker threads, per-thread buffers, and the entry points.
 
-``sgm_match`` cuts the image into stripes of about STRIPE_ROWS rows (fixed by the image height) and runs the
-fused passes of :mod:`.aggregate` on each, the workers (the calling thread and pool threads) taking the stripes
-in turn, with buffers kept in a :class:`Workspace` across calls;
+``sgm_match`` cuts the image into stripes of about STRIPE_ROWS rows (fixed by the image height) and runs on
+each either the one-sweep three-direction kernel of :mod:`.rowpass` (``paths=3``, the default: no sum volume)
+or the fused forward and backward passes of :mod:`.aggregate` (4 and 8 paths), the workers (the calling thread
+and pool threads) taking the stripes in turn, with buffers kept in a :class:`Workspace` across calls;
 ``sum_volume`` and ``cost_volume`` expose intermediate results for the tests against
 :mod:`stereo_classic.matching.reference`.
 """
@@ -39,9 +40,17 @@ from stereo_classic.matching._kernels.cost import (
     SAD,
     CostImages,
     CostSettings,
-    census_transform,
+    RowCostBuffers,
+    census_quarters,
     cost_volume_kernel,
     sad_prefilter,
+)
+from stereo_classic.matching._kernels.rowpass import (
+    RowPassBuffers,
+    StripePlan,
+    row_pass_buffers,
+    row_pass_bytes,
+    three_path_stripe,
 )
 
 __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume", "check_penalties", "cost_scale",
@@ -134,8 +143,8 @@ def _thread_buffers(H: int, W: int, D: int, kind: int, h: int) -> ThreadBuffers:
         minima.append(np.zeros(n, np.int16))
     if kind != CENSUS:  # SAD, or the gradient term of census+grad
         colsum = np.zeros((W + 2 * h) * D, np.int16)
-        srev = np.zeros(W + 2 * h + D - 1, np.int16)
-        irev = np.zeros(W + 2 * h + D - 1, np.int16)
+        srev = np.zeros(2 * (W + 2 * h + D - 1), np.int16)  # two reversed rows: entering and leaving the window
+        irev = np.zeros(2 * (W + 2 * h + D - 1), np.int16)
     else:
         colsum = np.zeros(1, np.int16)
         srev = np.zeros(1, np.int16)
@@ -154,6 +163,27 @@ def _reset_buffers(b: ThreadBuffers, D: int) -> None:
     for P, M in ((b.path_h, b.min_h), (b.path_v, b.min_v), (b.path_a, b.min_a), (b.path_b, b.min_b)):
         P.reshape(-1, E)[:, 1:E - 1] = 0
         M[:] = 0
+
+
+def _row_cost_buffers(W: int, D: int, kind: int, h: int) -> RowCostBuffers:
+    grad = kind != CENSUS
+    L = 2 * (W + 2 * h + D - 1)  # two reversed right rows
+    return RowCostBuffers(
+        colsum=np.zeros((W + 2 * h) * D if grad else 1, np.int16), hsum=np.zeros(D, np.int16),
+        rrev=np.zeros(4 * (W + D - 1) if kind != SAD else 1, np.uint16),
+        srev=np.zeros(L if grad else 1, np.int16), irev=np.zeros(L if kind == SAD else 1, np.int16))
+
+
+def _row_cost_bytes(W: int, D: int, kind: int, h: int) -> int:
+    grad = kind != CENSUS
+    L = 2 * (W + 2 * h + D - 1)
+    return (2 * (W + 2 * h) * D if grad else 2) + 2 * D + (8 * (W + D - 1) if kind != SAD else 2) + \
+        (2 * L if grad else 2) + (2 * L if kind == SAD else 2)
+
+
+def _reset_row_pass(b: RowPassBuffers, D: int) -> None:
+    b.path_v.reshape(-1, D + 2)[:, 1:D + 1] = 0
+    b.min_v[:] = 0
 
 
 class Workspace:
@@ -176,67 +206,77 @@ class Workspace:
         """Drop the buffers."""
         self.S = self.bufs = self._key = None
 
+    def arrays(self) -> list[np.ndarray]:
+        """Every buffer kept (empty when none)."""
+        if self.S is None:
+            return []
+        arrays = [self.S]
+        for b in self.bufs:  # ThreadBuffers, or (RowCostBuffers, RowPassBuffers) of the one-sweep kernel
+            for a in b:
+                arrays.extend(a if isinstance(a, tuple) else (a,))
+        return arrays
+
     @property
     def nbytes(self) -> int:
-        if self.S is None:
-            return 0
-        return self.S.nbytes + sum(a.nbytes for b in self.bufs for a in b)
+        return sum(a.nbytes for a in self.arrays())
 
 
 def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 8, lr_check: bool = True,
                  cost: str = "census", block_size: int = 5, threads: int = 2) -> int:
     """Bytes ``sgm_match`` allocates for an image of this size, without the input images.
 
-    The int16 sum volume (2 * H * W * D) dominates; the rest is the two float32 outputs, the cost
-    inputs (census codes or prefiltered images) and per-thread row buffers (about
-    2 * (D + 2) * (3 W + 3 H) bytes per worker thread, at most one worker per stripe). ``paths`` and
-    ``lr_check`` do not change it.
+    4 and 8 paths: the int16 sum volume (2 * H * W * D) dominates; the rest is the two float32 outputs, the
+    cost inputs (census codes or prefiltered images) and per-thread row buffers (about
+    2 * (D + 2) * (3 W + 3 H) bytes per worker thread, at most one worker per stripe). 3 paths (the one-sweep
+    kernel): no volume, three W x D row buffers and the top path's skewed vectors per worker (about
+    2 * D * (4 W + H) bytes). ``lr_check`` does not change it.
     """
     H, W, D = int(height), int(width), int(num_disparities)
-    h = block_size // 2 if cost != "census" else 0
+    kind = _KIND.get(cost, CENSUS)
+    h = block_size // 2 if kind != CENSUS else 0
     E = D + 2
     workers = max(1, min(int(threads), len(stripes(H))))  # one set of row buffers per worker thread
-    total = 2 * (H + workers) * W * D  # sum volume with one scratch row per worker
-    total += 2 * 4 * H * W  # left and right disparity
-    if cost != "sad":  # census codes
+    total = 2 * 4 * H * W  # left and right disparity
+    if kind != SAD:  # census codes, four uint16 quarters per pixel
         total += 2 * 8 * H * W
-    if cost != "census":  # prefiltered images
-        total += 2 * 2 * 2 * H * W + 2 * (H + 2) * (W + 2) * 2
+    if kind != CENSUS:  # prefiltered images (gradient; and intensity for SAD)
+        total += 2 * 2 * H * W * (2 if kind == SAD else 1) + 2 * (H + 2) * (W + 2) * 2
+    if paths == 3:
+        return total + workers * (row_pass_bytes(H, W, D) + _row_cost_bytes(W, D, kind, h))
+    total += 2 * (H + workers) * W * D  # sum volume with one scratch row per worker
     slots = 2 + (W + H + 1) + (W + 2 * H + 1) + (W + 2)
     per_thread = 2 * E * slots + 2 * slots  # path vectors + minima
     per_thread += 2 * 2 * D + 4 * D + 2 * 2 * (W + D) + 8 * W  # C, Ssum, hsum, right view, best
-    if cost != "census":
-        per_thread += 2 * (W + 2 * h) * D + 2 * 2 * (W + 2 * h + D)
-    if cost != "sad":
+    if kind != CENSUS:
+        per_thread += 2 * (W + 2 * h) * D + 2 * 2 * 2 * (W + 2 * h + D)
+    if kind != SAD:
         per_thread += 8 * (W + D)
     return total + workers * per_thread
 
 
+def _placeholder(dtype, ndim: int) -> np.ndarray:
+    """A distinct small array for an input the cost does not read (the kernels assume no aliasing)."""
+    return np.zeros((1,) * ndim, dtype)
+
+
 def _prepare_cost(left, right, cost, census_window, threads=1) -> CostImages:
-    if cost == "census+grad":
-        codes = _prepare_cost(left, right, "census", census_window, threads)
-        lsob, _ = sad_prefilter(left)
-        rsob, _ = sad_prefilter(right)
-        # no intensity term: zero images (distinct buffers: the kernels assume no aliasing)
-        return codes._replace(left_sobel=lsob, right_sobel=rsob, left_intensity=np.zeros_like(lsob),
-                              right_intensity=np.zeros_like(rsob))
-    if cost == "census":
+    if cost in ("census", "census+grad"):
         if threads >= 2:
-            fut = _pool(1).submit(census_transform, right, census_window)
-            lcode = census_transform(left, census_window)
+            fut = _pool(1).submit(census_quarters, right, census_window)
+            lcode = census_quarters(left, census_window)
             rcode = fut.result()
         else:
-            lcode = census_transform(left, census_window)
-            rcode = census_transform(right, census_window)
-        # (H, W, 4) uint16 quarters (little-endian: quarter 0 = bits 0-15); popcounts add up
-        H, W = left.shape
-        lcode = lcode.view(np.uint16).reshape(H, W, 4)
-        rcode = rcode.view(np.uint16).reshape(H, W, 4)
-        lsob, lint, rsob, rint = (np.zeros((1, 1), np.int16) for _ in range(4))  # distinct: noalias
-        return CostImages(left, lcode, rcode, lsob, lint, rsob, rint)
+            lcode = census_quarters(left, census_window)
+            rcode = census_quarters(right, census_window)
+        if cost == "census":
+            return CostImages(left, lcode, rcode, *(_placeholder(np.int16, 2) for _ in range(4)))
+        lsob, _ = sad_prefilter(left)
+        rsob, _ = sad_prefilter(right)
+        # no intensity term: the kernels read no intensity image for census+grad
+        return CostImages(left, lcode, rcode, lsob, _placeholder(np.int16, 2), rsob, _placeholder(np.int16, 2))
     lsob, lint = sad_prefilter(left)
     rsob, rint = sad_prefilter(right)
-    return CostImages(left, np.zeros((1, 1, 4), np.uint16), np.zeros((1, 1, 4), np.uint16), lsob, lint, rsob, rint)
+    return CostImages(left, _placeholder(np.uint16, 3), _placeholder(np.uint16, 3), lsob, lint, rsob, rint)
 
 
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
@@ -266,15 +306,21 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     # never more workers than stripes, nor than CPUs to run them: extra threads would only time-slice (measured
     # on 2 cores: 8 workers cost 1.21x the CPU time of 1; the result is the same for any count anyway)
     n_workers = max(1, min(int(threads), len(bands), usable_cpus()))
-    if workspace is not None and workspace.fits(H, W, D, kind, h, n_workers):
+    one_sweep = path_mask == THREE_PATHS  # left, top, right: the one-sweep kernel, no sum volume
+    key = (one_sweep, bool(keep_sums), H, W, D, kind, h, n_workers)
+    if workspace is not None and workspace.fits(*key):
         S, bufs = workspace.S, workspace.bufs
     else:
-        S = np.empty((H + n_workers, W, D), np.int16)  # + one scratch row per worker for warm-up rows
-        bufs = [_thread_buffers(H, W, D, kind, h) for _ in range(n_workers)]
+        if one_sweep:
+            S = np.empty((H, W, D), np.int16) if keep_sums else np.zeros(1, np.int16)
+            bufs = [(_row_cost_buffers(W, D, kind, h), row_pass_buffers(H, W, D)) for _ in range(n_workers)]
+        else:
+            S = np.empty((H + n_workers, W, D), np.int16)  # + one scratch row per worker for warm-up rows
+            bufs = [_thread_buffers(H, W, D, kind, h) for _ in range(n_workers)]
         if workspace is not None:
-            workspace.keep(S, bufs, (H, W, D, kind, h, n_workers))
+            workspace.keep(S, bufs, key)
     for b in bufs:
-        b.counts[:] = 0
+        (b[1] if one_sweep else b).counts[:] = 0
     disp = np.empty((H, W), np.float32)
     dispR = np.empty((H, W), np.float32)
     lr_thr = -1.0 if lr_check is None else float(lr_check)
@@ -291,9 +337,16 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     warm_b = WARMUP_ROWS if path_mask & 0xE0 else 0
 
     def stripe(t: int, y0: int, y1: int) -> None:
+        a = max(0, y0 - warm_f)
+        if one_sweep:  # one sweep down [y0 - warm, y1): the top path warms up, rows of [y0, y1) are resolved
+            cbufs, rbufs = bufs[t]
+            _reset_row_pass(rbufs, D)
+            three_path_stripe(images, cost_settings, settings,
+                              StripePlan(y_first=a, n_rows=y1 - a, warmup=y0 - a, keep_sums=bool(keep_sums),
+                                         select=bool(select)), cbufs, rbufs, out)
+            return
         # forward over [y0 - warm, y1) storing the partial sums of [y0, y1), then backward over
         # [y0, y1 + warm) adding its paths and selecting: both only touch the stripe's own rows
-        a = max(0, y0 - warm_f)
         _reset_buffers(bufs[t], D)
         sgm_pass(images, cost_settings, settings,
                  PassPlan(y_first=a, n_rows=y1 - a, step=1, accumulate=False, select=False, init_cost=True,
@@ -328,8 +381,9 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     t2 = time.perf_counter()
     timings["aggregate"] = (t2 - t1) * 1e3
     timings["select"] = 0.0  # fused into the second phase of "aggregate"
-    timings["n_failed_uniqueness"] = int(sum(int(b.counts[0]) for b in bufs))
-    timings["n_failed_lr"] = int(sum(int(b.counts[1]) for b in bufs))
+    counts = [(b[1] if one_sweep else b).counts for b in bufs]
+    timings["n_failed_uniqueness"] = int(sum(int(c[0]) for c in counts))
+    timings["n_failed_lr"] = int(sum(int(c[1]) for c in counts))
     return disp, (dispR if right_view else None), S[:H], timings
 
 
@@ -437,7 +491,7 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
                 p2: int = 80) -> np.ndarray:
     """(H, W, D) int16 matching cost, entry [y, x, k] for disparity min_disparity + k.
 
-    Exactly the costs the fused passes use (SAD scaled by ``cost_scale``, which depends on p2);
+    Exactly the costs the passes use (``cost.row_cost``, row by row) (SAD scaled by ``cost_scale``, which depends on p2);
     disparities whose match falls outside the right image hold the invalid cost
     ``cmax + 2 * p2_scaled + 1``. Not used on the fast path (it allocates the full volume).
     """
@@ -452,11 +506,6 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
                             invalid_cost=cmax + 2 * (int(p2) >> shift) + 1,
                             grad_mul=grad_mul(block_size) if cost == "census+grad" else 0)
     images = _prepare_cost(left, right, cost, census_window)
-
-    def whole(code: np.ndarray) -> np.ndarray:  # the volume kernel takes 64-bit codes (one popcount each)
-        return np.ascontiguousarray(code).reshape(code.shape[0], -1).view(np.uint64)
-
-    images = images._replace(left_code=whole(images.left_code), right_code=whole(images.right_code))
     out = np.empty((H, W, D), np.int16)
-    cost_volume_kernel(images, settings, out)
+    cost_volume_kernel(images, settings, _row_cost_buffers(W, D, kind, settings.half_block), out)
     return out

@@ -27,7 +27,10 @@ from numba.core.compiler import CompilerBase, DefaultPassBuilder
 from stereo_classic.matching._kernels.intrinsics import (
     absdiff16,
     add16,
-    popcnt16,
+    lshr16,
+    min16,
+    mulshr16,
+    popxor16,
     shr16,
     sub16,
 )
@@ -42,7 +45,10 @@ __all__ = [
     "CostImages",
     "CostSettings",
     "census_transform",
+    "census_quarters",
     "census_bits",
+    "row_cost",
+    "RowCostBuffers",
     "sad_prefilter",
     "cost_volume_kernel",
     "NoAliasCompiler",
@@ -158,6 +164,42 @@ def census_transform(image: np.ndarray, census_window: tuple[int, int]) -> np.nd
     return out
 
 
+@njit(cache=True, nogil=True)
+def _census_quarters_kernel(padded, hw, hh, out):  # pragma: no cover - numba
+    """out[y, x, q]: the 16-bit quarter q of the census code, bit for bit census_transform's."""
+    H, W = out.shape[0], out.shape[1]
+    nbits = (2 * hw + 1) * (2 * hh + 1) - 1
+    acc = np.zeros((4, W), np.uint16)
+    for y in range(H):
+        acc[:] = 0
+        centre = padded[y + hh, hw:hw + W]
+        n = 0  # neighbour n lands on bit nbits - 1 - n of the 64-bit code, i.e. quarter (nbits - 1 - n) // 16
+        for dy in range(-hh, hh + 1):
+            for dx in range(-hw, hw + 1):
+                if dy == 0 and dx == 0:
+                    continue
+                q = (nbits - 1 - n) // 16
+                n += 1
+                nb = padded[y + hh + dy, hw + dx:hw + dx + W]
+                a = acc[q]
+                for x in range(W):
+                    a[x] = (a[x] << np.uint16(1)) | np.uint16(nb[x] < centre[x])
+        for q in range(4):
+            for x in range(W):
+                out[y, x, q] = acc[q, x]
+
+
+def census_quarters(image: np.ndarray, census_window: tuple[int, int]) -> np.ndarray:
+    """Census codes as four 16-bit quarters: ``(H, W, 4) uint16``, equal to
+    ``census_transform(image, census_window).view(np.uint16).reshape(H, W, 4)`` (little-endian quarters,
+    quarter 0 = bits 0-15), computed in 16-bit lanes (four times as many per vector as the 64-bit codes)."""
+    w, h = census_window
+    padded = np.pad(image, ((h // 2, h // 2), (w // 2, w // 2)), mode="edge")
+    out = np.empty(image.shape + (4,), np.uint16)
+    _census_quarters_kernel(padded, w // 2, h // 2, out)
+    return out
+
+
 def sad_prefilter(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The two channels the SAD cost compares.
 
@@ -196,82 +238,122 @@ def _clamp(i, n):  # pragma: no cover - numba
     return 0 if i < 0 else (n - 1 if i >= n else i)
 
 
-@njit(cache=True, nogil=True)
-def census_reverse_row(rcode, y, rrev, dmin):  # pragma: no cover - numba
-    """rrev[j] = rcode[y, clamp(W - 1 - dmin - j)] for j in [0, len(rrev))."""
-    W = rcode.shape[1]
-    K = W - 1 - dmin
-    for j in range(rrev.shape[0]):
-        rrev[j] = rcode[y, _clamp(K - j, W)]
+class RowCostBuffers(NamedTuple):
+    """Per-thread state of ``row_cost`` (int16 unless said otherwise).
+
+    Attributes
+    ----------
+    colsum : ((W + 2h) * D,) int16
+        Column sums of the per-pixel SAD / gradient differences over the rows y - h .. y + h ((1,) for census).
+    hsum : (D,) int16
+        Window sum of the current pixel (the 16 bits hold the unsigned sum, at most 21 * 21 * 125 < 65536).
+    rrev : (4 * (W + D - 1),) uint16
+        Census code quarters of the current right row, reversed ((1,) for SAD).
+    srev, irev : (2 * (W + 2h + D - 1),) int16
+        Gradient and intensity channels of two right rows (the one entering the column window, the one leaving
+        it), reversed ((1,) for census; irev (1,) but for SAD).
+    """
+
+    colsum: np.ndarray
+    hsum: np.ndarray
+    rrev: np.ndarray
+    srev: np.ndarray
+    irev: np.ndarray
 
 
 @njit(cache=True, nogil=True)
-def census_pixel_cost(lc, rrev, x, W, C, D):  # pragma: no cover - numba
-    """C[k] = popcount(lc ^ census_right[x - dmin - k]) (rrev from census_reverse_row)."""
-    j0 = W - 1 - x
-    for k in range(D):
-        C[k] = popcnt16(lc ^ rrev[_U(j0 + k)])
-
-
-@njit(cache=True, nogil=True)
-def sad_reverse_row(rsob, rint, y, srev, irev, dmin, h):  # pragma: no cover - numba
-    """srev[j] = rsob[y, clamp(W - 1 + h - dmin - j)], same for the intensity row."""
+def sad_reverse_row(rsob, rint, y, srev, irev, dmin, h, intensity):  # pragma: no cover - numba
+    """srev[j] = rsob[y, clamp(W - 1 + h - dmin - j)], same for the intensity row (when ``intensity``)."""
     W = rsob.shape[1]
     K = W - 1 + h - dmin
     for j in range(srev.shape[0]):
         c = _clamp(K - j, W)
         srev[j] = rsob[y, c]
-        irev[j] = rint[y, c]
+        if intensity:
+            irev[j] = rint[y, c]
 
 
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def sad_colsum_row(colsum, add, lsob, lint, y, srev, irev, h, D):  # pragma: no cover - numba
+def sad_colsum_row(colsum, add, lsob, lint, y, srev, irev, h, D, intensity):  # pragma: no cover - numba
     """colsum[(x' + h) * D + k] (+/-)= AD(x', x' - dmin - k) for x' in [-h, W + h), one image row.
 
-    AD = |sobel_L - sobel_R| + |I_L - I_R| // 4. srev/irev come from sad_reverse_row for the
-    same row.
+    AD = |sobel_L - sobel_R| (+ |I_L - I_R| // 4 when ``intensity``, the SAD cost). srev/irev come from
+    sad_reverse_row for the same row.
     """
     W = lsob.shape[1]
     two = np.int16(2)
     for xp in range(-h, W + h):
         c = _clamp(xp, W)
         ls = lsob[y, c]
-        li = lint[y, c]
+        li = lint[y, c] if intensity else np.int16(0)
         j0 = W - 1 + h - xp
         base = (xp + h) * D
-        if add:
+        if add and intensity:
             for k in range(D):
                 ad = add16(absdiff16(ls, srev[_U(j0 + k)]), shr16(absdiff16(li, irev[_U(j0 + k)]), two))
                 colsum[_U(base + k)] = add16(colsum[_U(base + k)], ad)
-        else:
+        elif intensity:
             for k in range(D):
                 ad = add16(absdiff16(ls, srev[_U(j0 + k)]), shr16(absdiff16(li, irev[_U(j0 + k)]), two))
                 colsum[_U(base + k)] = sub16(colsum[_U(base + k)], ad)
+        elif add:
+            for k in range(D):
+                colsum[_U(base + k)] = add16(colsum[_U(base + k)], absdiff16(ls, srev[_U(j0 + k)]))
+        else:
+            for k in range(D):
+                colsum[_U(base + k)] = sub16(colsum[_U(base + k)], absdiff16(ls, srev[_U(j0 + k)]))
 
 
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D):  # pragma: no cover
+def sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D, intensity):  # pragma: no cover
     """colsum = sum of AD rows clamp(y - h) .. clamp(y + h)."""
     H = lsob.shape[0]
     colsum[:] = 0
     for yy in range(y - h, y + h + 1):
         yc = _clamp(yy, H)
-        sad_reverse_row(rsob, rint, yc, srev, irev, dmin, h)
-        sad_colsum_row(colsum, True, lsob, lint, yc, srev, irev, h, D)
+        sad_reverse_row(rsob, rint, yc, srev, irev, dmin, h, intensity)
+        sad_colsum_row(colsum, True, lsob, lint, yc, srev, irev, h, D, intensity)
 
 
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, D):  # pragma: no cover
-    """Move the column window from row y - step to row y (add row y + step*h, drop y - step*(h+1))."""
+def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, D,
+                       intensity):  # pragma: no cover
+    """Move the column window from row y - step to row y: add row y + step*h and drop row y - step*(h+1), in
+    one sweep over the column sums (``srev`` / ``irev`` hold two reversed rows: the one in, then the one out)."""
     H = lsob.shape[0]
+    W = lsob.shape[1]
     yin = _clamp(y + step * h, H)
     yout = _clamp(y - step * (h + 1), H)
     if yin == yout:
         return
-    sad_reverse_row(rsob, rint, yin, srev, irev, dmin, h)
-    sad_colsum_row(colsum, True, lsob, lint, yin, srev, irev, h, D)
-    sad_reverse_row(rsob, rint, yout, srev, irev, dmin, h)
-    sad_colsum_row(colsum, False, lsob, lint, yout, srev, irev, h, D)
+    L = W + 2 * h + D - 1
+    K = W - 1 + h - dmin
+    for j in range(L):
+        c = _clamp(K - j, W)
+        srev[j] = rsob[yin, c]
+        srev[L + j] = rsob[yout, c]
+        if intensity:
+            irev[j] = rint[yin, c]
+            irev[L + j] = rint[yout, c]
+    two = np.int16(2)
+    for xp in range(-h, W + h):
+        c = _clamp(xp, W)
+        a = lsob[yin, c]
+        b = lsob[yout, c]
+        j0 = W - 1 + h - xp
+        j1 = j0 + L
+        base = (xp + h) * D
+        if intensity:
+            ai = lint[yin, c]
+            bi = lint[yout, c]
+            for k in range(D):
+                add = add16(absdiff16(a, srev[_U(j0 + k)]), shr16(absdiff16(ai, irev[_U(j0 + k)]), two))
+                drop = add16(absdiff16(b, srev[_U(j1 + k)]), shr16(absdiff16(bi, irev[_U(j1 + k)]), two))
+                colsum[_U(base + k)] = add16(colsum[_U(base + k)], sub16(add, drop))
+        else:
+            for k in range(D):
+                colsum[_U(base + k)] = add16(colsum[_U(base + k)],
+                                             sub16(absdiff16(a, srev[_U(j0 + k)]), absdiff16(b, srev[_U(j1 + k)])))
 
 
 @njit(cache=True, nogil=True)
@@ -285,90 +367,105 @@ def sad_hsum_init(hsum, colsum, x, h, D):  # pragma: no cover - numba
             hsum[k] += colsum[_U(base + k)]
 
 
-@njit(cache=True, nogil=True)
-def sad_hsum_advance(hsum, colsum, x, step, h, D):  # pragma: no cover - numba
-    """Move the row window from x - step to x."""
-    bin_ = (x + step * h + h) * D
-    bout = (x - step * (h + 1) + h) * D
-    for k in range(D):
-        hsum[k] += np.int32(colsum[_U(bin_ + k)]) - np.int32(colsum[_U(bout + k)])
+@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+def row_cost(images, cost, y, first, bufs, crow):  # pragma: no cover - numba
+    """The matching cost of every pixel of row ``y``: ``crow[x * D + k]`` (int16), disparity ``min_disparity + k``.
 
-
-@njit(cache=True, nogil=True)
-def sad_pixel_cost(hsum, shift, cmax, C, D):  # pragma: no cover - numba
-    """C[k] = min(hsum[k] >> shift, cmax) as int16."""
-    for k in range(D):
-        v = hsum[k] >> shift
-        C[k] = np.int16(v if v < cmax else cmax)
-
-
-@njit(cache=True, nogil=True)
-def fill_invalid(C, x, W, dmin, cinv, D):  # pragma: no cover - numba
-    """Set C[k] = cinv where x - dmin - k is outside [0, W); return (k_lo, k_hi) valid, inclusive."""
-    k_lo = x - dmin - W + 1
-    if k_lo < 0:
-        k_lo = 0
-    k_hi = x - dmin
-    if k_hi > D - 1:
-        k_hi = D - 1
-    if k_lo > k_hi:
-        for k in range(D):
-            C[k] = cinv
-        return k_lo, k_hi
-    for k in range(0, k_lo):
-        C[k] = cinv
-    for k in range(k_hi + 1, D):
-        C[k] = cinv
-    return k_lo, k_hi
-
-
-@njit(cache=True, nogil=True)
-def cost_volume_kernel(images, cost, out):  # pragma: no cover - numba
-    """Fill ``out`` (H, W, D) int16 with the cost the fused passes use.
-
-    ``images``: a ``CostImages`` (census codes as (H, W) uint64); ``cost``: a ``CostSettings``.
+    ``images``: a ``CostImages`` with census codes as (H, W, 4) uint16 quarters; ``cost``: a ``CostSettings``;
+    ``bufs``: a ``RowCostBuffers``. The SAD / gradient column sums are built from scratch when ``first``, else
+    moved down from row ``y - 1`` (rows must then come in order). Disparities whose match falls outside the
+    right image get ``invalid_cost``.
     """
-    H, W, D = out.shape
-    kind = cost.kind
-    dmin = cost.min_disparity
-    h = cost.half_block
-    cinv = np.int16(cost.invalid_cost)
     lcode = images.left_code
     rcode = images.right_code
     lsob = images.left_sobel
     lint = images.left_intensity
     rsob = images.right_sobel
     rint = images.right_intensity
-    C = np.empty(D, np.int16)
-    if kind != 1:  # census, alone or as the first term
-        rrev = np.empty(W + D - 1, np.uint64)
-        for y in range(H):
-            census_reverse_row(rcode, y, rrev, dmin)
-            for x in range(W):
-                census_pixel_cost(lcode[y, x], rrev, x, W, C, D)
-                if kind == 0:
-                    fill_invalid(C, x, W, dmin, cinv, D)
-                out[y, x, :] = C
-    if kind != 0:  # SAD, or the gradient term added to the census cost
-        L = W + 2 * h + D - 1
-        srev = np.empty(L, np.int16)
-        irev = np.empty(L, np.int16)
-        colsum = np.zeros((W + 2 * h) * D, np.int16)
-        hsum = np.zeros(D, np.int32)
-        for y in range(H):
-            if y == 0:
-                sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D)
-            else:
-                sad_colsum_advance(colsum, y, 1, lsob, lint, rsob, rint, srev, irev, dmin, h, D)
-            for x in range(W):
-                if x == 0:
-                    sad_hsum_init(hsum, colsum, x, h, D)
-                else:
-                    sad_hsum_advance(hsum, colsum, x, 1, h, D)
-                if kind == 1:
-                    sad_pixel_cost(hsum, cost.shift, cost.cmax, C, D)
-                else:
+    colsum = bufs.colsum
+    hsum = bufs.hsum
+    rrev = bufs.rrev
+    srev = bufs.srev
+    irev = bufs.irev
+    kind = cost.kind
+    dmin = cost.min_disparity
+    h = cost.half_block
+    W = images.left.shape[1]
+    D = crow.shape[0] // W
+    cinv = np.int16(cost.invalid_cost)
+    grad = kind != CENSUS  # SAD, or the gradient term of census+grad (no intensity term)
+    if grad:
+        intensity = kind == SAD
+        if first:
+            sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D, intensity)
+        else:
+            sad_colsum_advance(colsum, y, 1, lsob, lint, rsob, rint, srev, irev, dmin, h, D, intensity)
+    shift = np.int16(cost.shift)
+    cmax = np.int16(cost.cmax)
+    gmul = np.int16(cost.grad_mul)
+    gshift = np.int16(GRAD_SHIFT)
+    nrr = W + D - 1
+    if kind != SAD:  # census: four 16-bit quarters per code (vpopcntw), all in int16 lanes
+        for j in range(nrr):  # rrev[q * nrr + j] = quarter q of the right code at column clamp(W - 1 - dmin - j)
+            c = _clamp(W - 1 - dmin - j, W)
+            for q in range(4):
+                rrev[q * nrr + j] = rcode[y, c, q]
+    for x in range(W):
+        cb = x * D
+        if grad:  # the window sum of the pixel: hsum over the column sums x - h .. x + h
+            if x == 0:
+                for k in range(D):
+                    hsum[k] = 0
+                for xp in range(-h, h + 1):
+                    base = (xp + h) * D
                     for k in range(D):
-                        C[k] = np.int16(out[y, x, k] + ((hsum[k] * cost.grad_mul) >> GRAD_SHIFT))
-                fill_invalid(C, x, W, dmin, cinv, D)
-                out[y, x, :] = C
+                        hsum[k] = add16(hsum[k], colsum[_U(base + k)])
+            else:
+                bin_ = (x + 2 * h) * D
+                bout = (x - 1) * D
+                for k in range(D):
+                    hsum[k] = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
+        if kind == SAD:
+            for k in range(D):
+                crow[_U(cb + k)] = min16(lshr16(hsum[k], shift), cmax)
+            continue
+        a0 = lcode[y, x, 0]
+        a1 = lcode[y, x, 1]
+        a2 = lcode[y, x, 2]
+        a3 = lcode[y, x, 3]
+        j0 = W - 1 - x
+        j1 = j0 + nrr
+        j2 = j1 + nrr
+        j3 = j2 + nrr
+        if grad:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT, in 32 bits
+            for k in range(D):
+                crow[_U(cb + k)] = add16(
+                    add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                          add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)]))),
+                    mulshr16(hsum[k], gmul, gshift))
+        else:
+            for k in range(D):
+                crow[_U(cb + k)] = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                                         add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
+    for x in range(W):  # disparities whose match is outside the right image: k outside [k_lo, k_hi]
+        k_lo = x - dmin - W + 1
+        k_hi = x - dmin
+        if k_lo > 0 or k_hi < D - 1:
+            cb = x * D
+            for k in range(D):
+                if k < k_lo or k > k_hi:
+                    crow[_U(cb + k)] = cinv
+
+
+@njit(cache=True, nogil=True)
+def cost_volume_kernel(images, cost, bufs, out):  # pragma: no cover - numba
+    """Fill ``out`` (H, W, D) int16 with the cost the passes use, row by row with ``row_cost``.
+
+    ``images``: a ``CostImages`` (census codes as (H, W, 4) uint16 quarters); ``cost``: a ``CostSettings``;
+    ``bufs``: a ``RowCostBuffers``.
+    """
+    H, W, D = out.shape
+    crow = np.empty(W * D, np.int16)
+    for y in range(H):
+        row_cost(images, cost, y, y == 0, bufs, crow)
+        out[y] = crow.reshape(W, D)

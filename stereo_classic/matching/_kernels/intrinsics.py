@@ -12,7 +12,8 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["add16", "sub16", "min16", "max16", "absdiff16", "and16", "shr16", "popcnt16", "popxor16", "pick16"]
+__all__ = ["add16", "sub16", "min16", "max16", "absdiff16", "and16", "shr16", "lshr16", "mulshr16", "popcnt16", "popxor16",
+           "pick16", "eq16"]
 
 
 def _check_int16(*args: types.Type) -> None:
@@ -117,6 +118,44 @@ def shr16(typingctx, a, n):
         return builder.ashr(args[0], args[1])
 
     return types.int16(types.int16, types.int16), codegen
+
+
+@intrinsic
+def lshr16(typingctx, a, n):
+    """Logical ``a >> n`` for int16 (the 16 bits read as unsigned: a wrapped uint16 sum up to 65535 shifts right)."""
+    _check_int16(a, n)
+
+    def codegen(context, builder, signature, args):
+        return builder.lshr(args[0], args[1])
+
+    return types.int16(types.int16, types.int16), codegen
+
+
+@intrinsic
+def mulshr16(typingctx, a, m, n):
+    """``(a * m) >> n`` with ``a`` and ``m`` read as unsigned 16-bit and the product taken in 32 bits (exact for
+    any uint16 inputs), truncated to int16: the caller keeps the result below 2**15."""
+    _check_int16(a, m, n)
+
+    def codegen(context, builder, signature, args):
+        i32 = ir.IntType(32)
+        a32 = builder.zext(args[0], i32)
+        m32 = builder.zext(args[1], i32)
+        n32 = builder.zext(args[2], i32)
+        return builder.trunc(builder.lshr(builder.mul(a32, m32), n32), ir.IntType(16))
+
+    return types.int16(types.int16, types.int16, types.int16), codegen
+
+
+@intrinsic
+def eq16(typingctx, a, b):
+    """``a == b`` for int16 (a plain compare, for selects that must vectorise)."""
+    _check_int16(a, b)
+
+    def codegen(context, builder, signature, args):
+        return builder.icmp_signed("==", args[0], args[1])
+
+    return types.boolean(types.int16, types.int16), codegen
 
 
 @intrinsic

@@ -157,6 +157,31 @@ def test_sums_stay_inside_int16_at_the_largest_p2():
         np.testing.assert_array_equal(got, want)
 
 
+@pytest.mark.parametrize("cost", ["census+grad", "sad"])
+def test_three_paths_with_adaptive_p2_match_reference(cost):
+    """The one-sweep kernel (paths=3) with P2 divided by the intensity step along each of its directions."""
+    left, right = _pair(26, h=10, w=28)
+    p1, p2 = (28, 112) if cost == "census+grad" else (200, 800)
+    kw = dict(cost=cost, min_disparity=-2, num_disparities=9, block_size=5, census_window=(9, 7))
+    shift, _ = core.cost_scale(cost, 5, (9, 7), p2)
+    C = ref.cost_volume_reference(left, right, p2=p2, **kw)
+    want = sum(ref.path_reference(C, k, p1 >> shift, p2 >> shift, image=left) for k in (0, 1, 4))
+    got = core.sum_volume(left, right, path_mask=core.THREE_PATHS, p1=p1, p2=p2, adaptive_p2=True, **kw)
+    np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("census_window", [(9, 7), (7, 7), (3, 3), (5, 3)])
+def test_census_quarters_are_the_census_codes_bit_for_bit(census_window):
+    from stereo_classic.matching._kernels.cost import census_quarters, census_transform
+
+    img = np.random.default_rng(7).integers(0, 256, (13, 37), dtype=np.uint8)
+    codes = census_transform(img, census_window)
+    np.testing.assert_array_equal(codes, ref.census_reference(img, census_window))
+    quarters = census_quarters(img, census_window)
+    assert quarters.dtype == np.uint16 and quarters.shape == img.shape + (4,)
+    np.testing.assert_array_equal(quarters, codes.view(np.uint16).reshape(13, 37, 4))
+
+
 # ---------------------------------------------------------------------------------------------
 # selection: WTA, uniqueness, subpixel, right view, LR check
 
@@ -166,12 +191,13 @@ def test_sums_stay_inside_int16_at_the_largest_p2():
     (0.0, 1.0, True), (0.1, None, True), (0.05, 0.0, False), (0.0, 2.0, True), (0.3, 1.0, True)])
 @pytest.mark.parametrize("lr_mode", ["full", "opencv"])
 @pytest.mark.parametrize("threads", [1, 2])
-def test_selection_matches_reference(dmin, D, uniqueness, lr_check, subpixel, lr_mode, threads):
+@pytest.mark.parametrize("paths", [8, 3])  # the two-pass kernel and the one-sweep kernel (paths=3)
+def test_selection_matches_reference(dmin, D, uniqueness, lr_check, subpixel, lr_mode, threads, paths):
     left, right = _pair(40, h=11, w=26)
     kw = dict(min_disparity=dmin, num_disparities=D, p1=P1, p2=P2)
-    S = core.sum_volume(left, right, **kw)
+    S = core.sum_volume(left, right, path_mask=core.PATH_MASKS[paths], **kw)
     d, dr, timings = core.sgm_match(left, right, uniqueness=uniqueness, lr_check=lr_check, subpixel=subpixel,
-                                    threads=threads, return_right=True, lr_mode=lr_mode, **kw)
+                                    threads=threads, return_right=True, lr_mode=lr_mode, paths=paths, **kw)
     wd, wdr = ref.select_reference(S, dmin, uniqueness=uniqueness, lr_check=lr_check, subpixel=subpixel,
                                    lr_mode=lr_mode)
     assert d.dtype == np.float32 and d.shape == left.shape and dr.shape == left.shape

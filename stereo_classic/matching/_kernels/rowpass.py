@@ -1,0 +1,374 @@
+"""Three-direction SGM in one sweep down a stripe (numba): ``three_path_stripe`` and its buffers.
+
+The directions are OpenCV MODE_SGBM_3WAY's: from the left, from above, from the right (the default
+``paths=3``). They need no second pass over the image, so nothing is stored per image but the output:
+
+* per row, ``row_cost`` writes the cost of every pixel of the row once (``crow``, W x D int16);
+* a left-to-right sweep updates the top path (skewed row buffer, as in :mod:`.aggregate`: the vector of
+  pixel ``x`` of row ``r`` is written at slot ``x - r + n_rows`` and its predecessor read one slot on) and
+  the left path, and stores their sum per pixel (``srow``);
+* a right-to-left sweep adds the right path, keeping the complete sum in ``srow`` and its minimum per pixel;
+* ``select_row`` resolves the row (winner-takes-all, uniqueness, subpixel, right view, left-right check).
+
+Per thread this touches about 3 x W x D x 2 bytes (1 MB at 1242 x 128), which stays in L2, against a
+H x W x D volume written and read back by the two-pass kernel. The values are those of
+:func:`.aggregate.sgm_pass` run forward (left, top) then backward (right) over the same stripe: bit for bit
+(checked by the tests against the numpy reference and the two-pass kernel).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr, _p2_at
+from stereo_classic.matching._kernels.cost import NoAliasCompiler, row_cost
+from stereo_classic.matching._kernels.intrinsics import add16, eq16, min16, pick16
+
+__all__ = ["RowPassBuffers", "StripePlan", "three_path_stripe", "select_row", "row_pass_buffers"]
+
+_INT16_MAX = 32767
+_U = np.uint64  # unsigned flat indices: no wraparound code, contiguous vector loads
+
+
+class StripePlan(NamedTuple):
+    """The rows one call of ``three_path_stripe`` covers.
+
+    Attributes
+    ----------
+    y_first : int
+        First row, warm-up rows included.
+    n_rows : int
+        Rows, warm-up rows included.
+    warmup : int
+        The first ``warmup`` rows only run the top path in (nothing is selected or written for them).
+    keep_sums : bool
+        Write the complete sums of the stripe's own rows to ``PassOutputs.sums`` (test entry ``sum_volume``).
+    select : bool
+        Resolve the pixels (else only the sums are computed).
+    """
+
+    y_first: int
+    n_rows: int
+    warmup: int
+    keep_sums: bool
+    select: bool
+
+
+class RowPassBuffers(NamedTuple):
+    """Row buffers of one thread (int16 unless said otherwise; E = D + 2).
+
+    Attributes
+    ----------
+    crow : (W * D,) int16
+        Cost of every pixel of the current row.
+    srow : (W * D,) int16
+        Left + top sums of the row, then (after the right-to-left sweep) the complete sums.
+    path_v : ((W + H + 1) * E,) int16
+        Skewed top-path vectors, sentinels at both disparity ends.
+    min_v : (W + H + 1,) int16
+        Minimum of each top-path vector.
+    path_h : (2 * E,) int16
+        The horizontal path's previous and current vector.
+    min_h : (2,) int16
+    row_min : (W,) int16
+        Minimum complete sum per pixel of the row.
+    k_index : (D,) int16
+        0 .. D - 1 (the first index of the minimum is found with vector selects).
+    right_sums, right_k : (W + D - 1,) int16
+        Right view: best sum and its disparity index per right pixel.
+    best : (W,) int64
+        Winning disparity index per pixel of the row (-1: none).
+    counts : (2,) int64
+        Pixels rejected by uniqueness and by the LR check.
+    claim_cost, claim_k : (W,) int16
+        OpenCV-style LR check: cost and disparity index of each right pixel's claim.
+    """
+
+    crow: np.ndarray
+    srow: np.ndarray
+    path_v: np.ndarray
+    min_v: np.ndarray
+    path_h: np.ndarray
+    min_h: np.ndarray
+    row_min: np.ndarray
+    k_index: np.ndarray
+    right_sums: np.ndarray
+    right_k: np.ndarray
+    best: np.ndarray
+    counts: np.ndarray
+    claim_cost: np.ndarray
+    claim_k: np.ndarray
+
+
+def row_pass_buffers(H: int, W: int, D: int) -> RowPassBuffers:
+    """Fresh buffers for one worker (path vectors zero = the path start, sentinels in place)."""
+    E = D + 2
+    slots = W + H + 1
+    pv = np.zeros((slots, E), np.int16)
+    pv[:, 0] = pv[:, E - 1] = _SENTINEL
+    ph = np.zeros((2, E), np.int16)
+    ph[:, 0] = ph[:, E - 1] = _SENTINEL
+    return RowPassBuffers(
+        crow=np.empty(W * D, np.int16), srow=np.empty(W * D, np.int16), path_v=pv.reshape(-1),
+        min_v=np.zeros(slots, np.int16), path_h=ph.reshape(-1), min_h=np.zeros(2, np.int16),
+        row_min=np.empty(W, np.int16), k_index=np.arange(D, dtype=np.int16),
+        right_sums=np.empty(W + D - 1, np.int16), right_k=np.empty(W + D - 1, np.int16),
+        best=np.empty(W, np.int64), counts=np.zeros(2, np.int64),
+        claim_cost=np.empty(W, np.int16), claim_k=np.empty(W, np.int16))
+
+
+def row_pass_bytes(H: int, W: int, D: int) -> int:
+    """Bytes of ``row_pass_buffers(H, W, D)``."""
+    E = D + 2
+    slots = W + H + 1
+    return (2 * 2 * W * D + 2 * slots * E + 2 * slots + 2 * 2 * E + 4 + 2 * W + 2 * D + 2 * 2 * (W + D - 1)
+            + 8 * W + 16 + 2 * 2 * W)
+
+
+@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+def select_row(y, settings, dmin, bufs, out):  # pragma: no cover - numba
+    """Resolve row ``y`` from its complete sums (``bufs.srow``, minima ``bufs.row_min``, and the right view's
+    winners ``bufs.right_k`` that the right-to-left sweep made).
+
+    Winner-takes-all (first index of the minimum; disparities whose match is outside the right image always
+    sum higher than the others), uniqueness, parabola subpixel, then the left-right check of the row ("full":
+    against the right view's winner; "opencv": against the claims, ties to the largest x), and the right-view
+    disparity.
+    """
+    uniq = settings.uniqueness
+    lr_thr = settings.lr_threshold
+    lr_claims = settings.lr_claims
+    subpix = settings.subpixel
+    right_view = settings.right_view
+    srow = bufs.srow
+    nsrow = bufs.row_min
+    kidx = bufs.k_index
+    rv = bufs.right_sums
+    rd = bufs.right_k
+    best = bufs.best
+    counts = bufs.counts
+    ccost = bufs.claim_cost
+    ck = bufs.claim_k
+    disp = out.disparity
+    dispR = out.disparity_right
+    W = disp.shape[1]
+    D = kidx.shape[0]
+    big = np.int16(_INT16_MAX)
+    minus1 = np.int16(-1)
+    nan = np.float32(np.nan)
+    if lr_claims:
+        for q in range(W):
+            ccost[q] = big
+            ck[q] = minus1
+    for x in range(W):
+        k_lo = x - dmin - W + 1
+        if k_lo < 0:
+            k_lo = 0
+        k_hi = x - dmin
+        if k_hi > D - 1:
+            k_hi = D - 1
+        if k_lo > k_hi:
+            disp[y, x] = nan
+            best[x] = -1
+            continue
+        ns = nsrow[x]
+        db = x * D
+        bk16 = big
+        for k in range(D):  # first index of the minimum, in vector selects
+            bk16 = min16(bk16, pick16(eq16(srow[_U(db + k)], ns), kidx[k], big))
+        bk = np.int64(bk16)
+        best[x] = bk
+        if uniq > 0.0:
+            m2 = big
+            for k in range(k_lo, bk - 1):
+                m2 = min16(m2, srow[_U(db + k)])
+            for k in range(bk + 2, k_hi + 1):
+                m2 = min16(m2, srow[_U(db + k)])
+            if m2 < big and np.float64(m2) * (1.0 - uniq) < np.float64(ns):
+                disp[y, x] = nan
+                counts[0] += 1
+                continue
+        if lr_claims:  # the right pixel x - d is claimed by the lowest sum landing there (ties: the largest x)
+            xr = x - dmin - bk
+            if ns <= ccost[xr]:
+                ccost[xr] = ns
+                ck[xr] = np.int16(bk)
+        off = 0.0
+        if subpix and bk - 1 >= k_lo and bk + 1 <= k_hi:
+            sm_ = np.int64(srow[_U(db + bk - 1)])
+            sp_ = np.int64(srow[_U(db + bk + 1)])
+            den = sm_ + sp_ - 2 * np.int64(ns)
+            if den > 0:
+                off = (sm_ - sp_) / (2.0 * den)
+        disp[y, x] = np.float32(dmin + bk + off)
+    if lr_claims:
+        # reject x only when the claims at both x - floor(d) and x - ceil(d) disagree with it
+        for x in range(W):
+            dv = disp[y, x]
+            if dv != dv:
+                continue
+            t = np.float64(dv) - dmin
+            kf = np.int64(np.floor(t))
+            kc = np.int64(np.ceil(t))
+            xf = x - dmin - kf
+            xc = x - dmin - kc
+            bad_f = 0 <= xf < W and ck[xf] >= 0 and abs(np.float64(ck[xf] - kf)) > lr_thr
+            bad_c = 0 <= xc < W and ck[xc] >= 0 and abs(np.float64(ck[xc] - kc)) > lr_thr
+            if bad_f and bad_c:
+                disp[y, x] = nan
+                counts[1] += 1
+    if right_view and lr_thr >= 0.0 and not lr_claims:
+        # full check: |best - right-view winner at x - dmin - best| > lr_thr
+        for x in range(W):
+            b = best[x]
+            if b < 0 or disp[y, x] != disp[y, x]:
+                continue
+            q = W - 1 - x + b
+            if abs(np.float64(b - rd[q])) > lr_thr:
+                disp[y, x] = nan
+                counts[1] += 1
+    if right_view:
+        nq = rv.shape[0]
+        for xr in range(W):
+            q = W - 1 - dmin - xr
+            if 0 <= q < nq and rd[q] >= 0:
+                dispR[y, xr] = np.float32(dmin + rd[q])
+            else:
+                dispR[y, xr] = nan
+
+
+@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cover - numba
+    """Aggregate the left, top and right paths over ``plan``'s rows and resolve each row at once.
+
+    Parameters
+    ----------
+    images : CostImages
+        Left image and census quarters / gradient channels (see :mod:`.cost`).
+    cost : CostSettings
+    settings : aggregate.PassSettings
+        Penalties and selection settings (``path_mask`` is not read: the directions are fixed).
+    plan : StripePlan
+    cbufs : cost.RowCostBuffers
+        This worker's cost state.
+    bufs : RowPassBuffers
+        This worker's row buffers; the path vectors must hold zeros (the path start) on entry.
+    out : aggregate.PassOutputs
+        Disparity maps, and the flat sum volume when ``plan.keep_sums``.
+    """
+    limg = images.left
+    W = limg.shape[1]
+    p1 = np.int16(settings.p1)
+    p2 = np.int16(settings.p2)
+    adaptive = settings.adaptive_p2
+    dmin = cost.min_disparity
+    crow = bufs.crow
+    srow = bufs.srow
+    PV = bufs.path_v
+    MV = bufs.min_v
+    PH = bufs.path_h
+    MH = bufs.min_h
+    nsrow = bufs.row_min
+    kidx = bufs.k_index
+    rv = bufs.right_sums
+    rd = bufs.right_k
+    right_view = settings.right_view
+    minus1 = np.int16(-1)
+    Sf = out.sums
+    D = bufs.k_index.shape[0]
+    E = D + 2
+    big = np.int16(_INT16_MAX)
+    zero = np.int16(0)
+    n_rows = plan.n_rows
+    for r in range(n_rows):
+        y = plan.y_first + r
+        warming = r < plan.warmup
+        row_cost(images, cost, y, r == 0, cbufs, crow)
+        # --- left to right: the top path (slot w = x - r + n_rows, predecessor at w + 1) and the left path
+        for k in range(D):
+            PH[k + 1] = zero
+        MH[0] = zero
+        for x in range(W):
+            cb = x * D
+            wvs = x - r + n_rows
+            wv = wvs * E
+            rvb = wv + E
+            mv = MV[wvs + 1]
+            qv = add16(mv, _p2_at(limg, y, x, y - 1, x, p1, p2, adaptive) if adaptive else p2)
+            nv = big
+            if warming:
+                for k in range(D):
+                    vv = _lr(PV, rvb, crow[_U(cb + k)], mv, qv, p1, k)
+                    PV[_U(wv + 1 + k)] = vv
+                    nv = min16(nv, vv)
+            else:
+                rhs = x & 1
+                whs = 1 - rhs
+                mh = MH[rhs]
+                qh = add16(mh, _p2_at(limg, y, x, y, x - 1, p1, p2, adaptive) if adaptive else p2)
+                wh = whs * E
+                rh = rhs * E
+                nh = big
+                for k in range(D):
+                    c = crow[_U(cb + k)]
+                    vv = _lr(PV, rvb, c, mv, qv, p1, k)
+                    vh = _lr(PH, rh, c, mh, qh, p1, k)
+                    PV[_U(wv + 1 + k)] = vv
+                    PH[_U(wh + 1 + k)] = vh
+                    nv = min16(nv, vv)
+                    nh = min16(nh, vh)
+                    srow[_U(cb + k)] = add16(vv, vh)
+                MH[whs] = nh
+            MV[wvs] = nv
+        if warming:
+            continue
+        # --- right to left: the right path, the complete sums and their minimum
+        for k in range(D):
+            PH[k + 1] = zero
+        MH[0] = zero
+        if right_view:
+            for q in range(rv.shape[0]):
+                rv[q] = big
+                rd[q] = minus1
+        for i in range(W):
+            x = W - 1 - i
+            cb = x * D
+            rhs = i & 1
+            whs = 1 - rhs
+            mh = MH[rhs]
+            qh = add16(mh, _p2_at(limg, y, x, y, x + 1, p1, p2, adaptive) if adaptive else p2)
+            wh = whs * E
+            rh = rhs * E
+            nh = big
+            ns = big
+            if right_view:  # the right view's running minimum, here where the sums are made (x falling, <=:
+                q0 = i  # ties keep the smallest k); q = W - 1 - x + k. Disparities whose match is outside the
+                for k in range(D):  # right image land on q of no right pixel, never read
+                    vh = _lr(PH, rh, crow[_U(cb + k)], mh, qh, p1, k)
+                    PH[_U(wh + 1 + k)] = vh
+                    nh = min16(nh, vh)
+                    sm = add16(vh, srow[_U(cb + k)])
+                    srow[_U(cb + k)] = sm
+                    ns = min16(ns, sm)
+                    old = rv[_U(q0 + k)]
+                    rv[_U(q0 + k)] = min16(sm, old)
+                    rd[_U(q0 + k)] = pick16(sm <= old, kidx[k], rd[_U(q0 + k)])
+            else:
+                for k in range(D):
+                    vh = _lr(PH, rh, crow[_U(cb + k)], mh, qh, p1, k)
+                    PH[_U(wh + 1 + k)] = vh
+                    nh = min16(nh, vh)
+                    sm = add16(vh, srow[_U(cb + k)])
+                    srow[_U(cb + k)] = sm
+                    ns = min16(ns, sm)
+            MH[whs] = nh
+            nsrow[x] = ns
+        if plan.keep_sums:
+            base = y * W * D
+            for j in range(W * D):
+                Sf[_U(base + j)] = srow[_U(j)]
+        if plan.select:
+            select_row(y, settings, dmin, bufs, out)
