@@ -1,6 +1,7 @@
-"""Fused two-thread semi-global matching kernel (numba): ``sgm_pass`` and its argument records.
+"""Two-pass semi-global matching kernel for 4 and 8 paths (numba): ``sgm_pass`` and its argument records.
 
-The Python side (threads, buffers, the public entry points) is :mod:`.core`.
+The Python side (stripes, threads, buffers, the public entry points) is :mod:`.core`; the default three
+directions run in one sweep in :mod:`.rowpass` instead.
 
 Design:
 
@@ -10,18 +11,15 @@ Design:
 * The 8 directions are split into a *forward* pass (rows top-down, x left-to-right: from the left,
   from above, from the top-left, from the top-right) and a *backward* pass (rows bottom-up, x
   right-to-left: the four opposite directions).
-* Phase 1: thread A runs the forward pass over the top half of the rows, thread B the backward
-  pass over the bottom half, each *storing* its 4-path partial sums into ``S``. Phase 2 (after the
-  barrier): thread A continues forward over the bottom half and thread B backward over the top
-  half, each *adding* its 4 paths to the stored partial sum; every row is then complete and is
-  resolved at once (winner-takes-all, uniqueness, parabola subpixel, right-view argmin, left-right
-  check) while it is still in cache: no separate argmin pass.
+* Per stripe of rows (``core.stripes``): the forward pass *stores* its partial sums into ``S``, then the
+  backward pass *adds* its paths; every row is then complete and is resolved at once (``select.select_row``:
+  winner-takes-all, uniqueness, parabola subpixel, left-right check) while it is still in cache.
 * The 4 paths of a pass are updated in ONE loop over the disparities (int16 vectors, 32 lanes).
   Path vectors live in skewed row buffers: the new vector of a pixel is written one slot before
   the slot its predecessor is read from (vertical slot ``i - v + H``, diagonals ``i - 2v + 2H``
   and ``i + 1``), so every write lands on a vector the row has already consumed: no copies, no
   temporaries, about 1 MB per thread at 1242 x 375 x 128 (Zen 4: 1 MB L2 per core).
-* In phase 2 the complete sums go to a D-vector scratch, not back to ``S`` (only the test entry
+* In the backward pass the complete sums go to a row buffer, not back to ``S`` (only the test entry
   ``sum_volume`` keeps them).
 * Arithmetic stays in int16 through LLVM intrinsics (``intrinsics``); flat arrays indexed
   with unsigned offsets (no wraparound code, plain vector loads); per-pixel loops written out in
@@ -63,6 +61,7 @@ from stereo_classic.matching._kernels.intrinsics import (
     popxor16,
     sub16,
 )
+from stereo_classic.matching._kernels.select import select_row
 
 __all__ = ["check_penalties", "cost_scale", "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
            "ALL_PATHS", "FOUR_PATHS", "THREE_PATHS", "PATH_NAMES", "PATH_STEPS", "grad_mul"]
@@ -169,8 +168,12 @@ class ThreadBuffers(NamedTuple):
         Minimum of each path vector.
     cost : (D,) int16
         Cost of the current pixel.
-    sums : (D,) int16
-        Complete sum of the current pixel (phase 2, when the volume does not keep it).
+    sums : (W * D,) int16
+        Complete sums of the current row (backward pass, when the volume does not keep them).
+    row_min : (W,) int16
+        Minimum complete sum per pixel of the row.
+    k_index : (D,) int16
+        0 .. D - 1.
     colsum : ((W + 2h) * D,) int16
         SAD column sums ((1,) placeholder for census).
     hsum : (D,) int32
@@ -199,6 +202,8 @@ class ThreadBuffers(NamedTuple):
     min_b: np.ndarray
     cost: np.ndarray
     sums: np.ndarray
+    row_min: np.ndarray
+    k_index: np.ndarray
     colsum: np.ndarray
     hsum: np.ndarray
     rrev: np.ndarray
@@ -310,9 +315,9 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
         The flat (H * W * D,) int16 sum volume and the (H, W) float32 disparity maps.
 
     ``plan.accumulate``: add to the sum volume instead of storing (the complete sums go back to it
-    only when ``plan.keep_sums``, else to the scratch vector ``bufs.sums``); ``plan.select``: resolve
-    every pixel as soon as its sum is complete, and the row's right view and LR check at the row end;
-    ``plan.init_cost``: (SAD) build the column sums from scratch at the first row.
+    only when ``plan.keep_sums``, else to the row buffer ``bufs.sums``); ``plan.select`` (backward pass
+    only): keep each pixel's minimum and the right view's running winner, and resolve the row at its end
+    (``select.select_row``); ``plan.init_cost``: (SAD) build the column sums from scratch at the first row.
 
     Path vectors: slots of E = D + 2 int16 (sentinels at both ends), minima in MH/MV/MA/MB. In pass
     coordinates (i = position along the row in processing order, v = rows processed since the
@@ -342,10 +347,6 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
     p2 = settings.p2
     adaptive = settings.adaptive_p2
     path_mask = settings.path_mask
-    uniq = settings.uniqueness
-    lr_thr = settings.lr_threshold
-    lr_claims = settings.lr_claims
-    subpix = settings.subpixel
     right_view = settings.right_view
     y_first = plan.y_first
     nrows = plan.n_rows
@@ -365,7 +366,9 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
     MA = bufs.min_a
     MB = bufs.min_b
     C = bufs.cost
-    Ssum = bufs.sums
+    Srow = bufs.sums
+    nsrow = bufs.row_min
+    kidx = bufs.k_index
     colsum = bufs.colsum
     hsum = bufs.hsum
     rrev = bufs.rrev
@@ -378,8 +381,6 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
     ccost = bufs.claim_cost
     ck = bufs.claim_k
     Sf = out.sums
-    disp = out.disparity
-    dispR = out.disparity_right
     H = limg.shape[0]
     W = limg.shape[1]
     D = C.shape[0]
@@ -397,9 +398,8 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
     p2_16 = np.int16(p2)
     cinv16 = np.int16(cinv)
     big = np.int16(_INT16_MAX)
-    nan = np.float32(np.nan)
     forward = step > 0
-    dst = Sf if keep_sums else Ssum
+    dst = Sf if keep_sums else Srow
     nrr = W + D - 1  # length of one reversed right-row quarter
     select_all = select
     for r in range(nrows):
@@ -429,10 +429,6 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
             for q in range(rv.shape[0]):
                 rv[q] = big
                 rd[q] = minus1
-        if select and lr_claims:
-            for q in range(W):
-                ccost[q] = big
-                ck[q] = minus1
         for i in range(W):
             x = i if forward else W - 1 - i
             # --- cost of pixel (y, x) (census written out here: a call per pixel costs as much). For
@@ -481,7 +477,7 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                     if k < k_lo or k > k_hi:
                         C[k] = cinv16
             sb = (row * W + x) * D
-            db = sb if keep_sums else 0
+            db = sb if keep_sums else x * D
             # --- slots: write w, read w + 1 (horizontal: alternate between slots 0 and 1)
             rhs = i & 1
             whs = 1 - rhs
@@ -636,93 +632,18 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                         Sf[_U(sb + k)] = add16(and16(vh, mk0), and16(vv, mk1))
             MH[whs] = nh
             MV[wvs] = nv
-            # --- winner of a complete pixel: WTA (first index of the minimum ns; invalid k always
-            # sum higher than valid ones), right-view update, uniqueness, parabola subpixel
+            # --- a complete pixel (backward pass, selecting): its minimum, and the right view's running winner per
+            # right pixel (x falling, <=: ties keep the smallest k); the row is resolved at its end by select_row
             if select:
-                if k_lo > k_hi:
-                    disp[y, x] = nan
-                    best[x] = -1
-                    continue
-                n = k_hi - k_lo + 1
-                b0 = db + k_lo
-                bk = k_lo  # first index of the minimum: a scalar scan (measured faster than 16-wide block minima)
-                while bk < k_hi and dst[_U(db + bk)] != ns:
-                    bk += 1
-                best[x] = bk
-                q0 = W - 1 - x + k_lo  # right pixel x - dmin - k sits at q = W - 1 - x + k
-                if not right_view:
-                    pass
-                elif forward:  # ties keep the smallest k whatever the order of x
-                    for j in range(n):
+                nsrow[x] = ns
+                if right_view and k_lo <= k_hi:
+                    b0 = db + k_lo
+                    q0 = W - 1 - x + k_lo  # right pixel x - dmin - k sits at q = W - 1 - x + k
+                    for j in range(k_hi - k_lo + 1):
                         sv = dst[_U(b0 + j)]
                         old = rv[_U(q0 + j)]
-                        lt = sv < old
                         rv[_U(q0 + j)] = min16(sv, old)
-                        rd[_U(q0 + j)] = pick16(lt, np.int16(k_lo + j), rd[_U(q0 + j)])
-                else:
-                    for j in range(n):
-                        sv = dst[_U(b0 + j)]
-                        old = rv[_U(q0 + j)]
-                        le = sv <= old
-                        rv[_U(q0 + j)] = min16(sv, old)
-                        rd[_U(q0 + j)] = pick16(le, np.int16(k_lo + j), rd[_U(q0 + j)])
-                if uniq > 0.0:
-                    m2 = big
-                    for k in range(k_lo, bk - 1):
-                        m2 = min16(m2, dst[_U(db + k)])
-                    for k in range(bk + 2, k_hi + 1):
-                        m2 = min16(m2, dst[_U(db + k)])
-                    if m2 < big and np.float64(m2) * (1.0 - uniq) < np.float64(ns):
-                        disp[y, x] = nan
-                        counts[0] += 1
-                        continue
-                if lr_claims:
-                    # LR check as OpenCV does it: the right pixel x - d is claimed by the left pixel
-                    # with the lowest minimum sum among those whose winner lands there (ties: the
-                    # largest x, whatever the pass direction)
-                    xr = x - dmin - bk
-                    if ns < ccost[xr] or (forward and ns == ccost[xr]):
-                        ccost[xr] = ns
-                        ck[xr] = np.int16(bk)
-                off = 0.0
-                if subpix and bk - 1 >= k_lo and bk + 1 <= k_hi:
-                    sm_ = np.int64(dst[_U(db + bk - 1)])
-                    sp_ = np.int64(dst[_U(db + bk + 1)])
-                    den = sm_ + sp_ - 2 * np.int64(ns)
-                    if den > 0:
-                        off = (sm_ - sp_) / (2.0 * den)
-                disp[y, x] = np.float32(dmin + bk + off)
-        if select and lr_claims:
-            # reject x only when the claims at both x - floor(d) and x - ceil(d) disagree with it
-            for x in range(W):
-                dv = disp[y, x]
-                if dv != dv:
-                    continue
-                t = np.float64(dv) - dmin
-                kf = np.int64(np.floor(t))
-                kc = np.int64(np.ceil(t))
-                xf = x - dmin - kf
-                xc = x - dmin - kc
-                bad_f = 0 <= xf < W and ck[xf] >= 0 and abs(np.float64(ck[xf] - kf)) > lr_thr
-                bad_c = 0 <= xc < W and ck[xc] >= 0 and abs(np.float64(ck[xc] - kc)) > lr_thr
-                if bad_f and bad_c:
-                    disp[y, x] = nan
-                    counts[1] += 1
-        if select and right_view and lr_thr >= 0.0 and not lr_claims:
-            # full check: |best - right-view winner at x - dmin - best| > lr_thr
-            for x in range(W):
-                b = best[x]
-                if b < 0 or disp[y, x] != disp[y, x]:
-                    continue
-                q = W - 1 - x + b
-                if abs(np.float64(b - rd[q])) > lr_thr:
-                    disp[y, x] = nan
-                    counts[1] += 1
-        if select and right_view:
-            nq = rv.shape[0]
-            for xr in range(W):
-                q = W - 1 - dmin - xr
-                if 0 <= q < nq and rd[q] >= 0:
-                    dispR[y, xr] = np.float32(dmin + rd[q])
-                else:
-                    dispR[y, xr] = nan
+                        rd[_U(q0 + j)] = pick16(sv <= old, kidx[k_lo + j], rd[_U(q0 + j)])
+        if select:
+            sums_row = Sf[_U(y * W * D):_U((y + 1) * W * D)] if keep_sums else Srow
+            select_row(y, settings, dmin, sums_row, nsrow, kidx, rv, rd, best, counts, ccost, ck, out)

@@ -76,7 +76,8 @@ _POOL_SIZE = 0
 #: (dense bad-2, Middlebury-style / driving): default matcher as one stripe (the exact full passes)
 #: 6.8 / 18.9, in stripes of 48 rows with 16 warm-up rows 6.8 / 18.6; census 8 paths, bad-2 with unknown
 #: as bad on the six Middlebury-style scenes: 16 warm-up rows are within 0.05 points of the full passes on
-#: each, 8 warm-up rows lose up to 0.2 (Tsukuba).
+#: each, 8 warm-up rows lose up to 0.2 (Tsukuba). The one-sweep kernel (paths=3) with 8 warm-up rows: family means
+#: within 0.15, but Cones 8.31 -> 9.00 (`python -m benchmarks --methods sc-default --quick`): kept at 16.
 STRIPE_ROWS = 48
 WARMUP_ROWS = 16
 
@@ -151,7 +152,8 @@ def _thread_buffers(H: int, W: int, D: int, kind: int, h: int) -> ThreadBuffers:
         irev = np.zeros(1, np.int16)
     rrev = np.zeros(4 * (W + D - 1), np.uint16) if kind != SAD else np.zeros(1, np.uint16)
     return ThreadBuffers(
-        *paths, *minima, cost=np.zeros(D, np.int16), sums=np.zeros(D, np.int16), colsum=colsum,
+        *paths, *minima, cost=np.zeros(D, np.int16), sums=np.zeros(W * D, np.int16),
+        row_min=np.zeros(W, np.int16), k_index=np.arange(D, dtype=np.int16), colsum=colsum,
         hsum=np.zeros(D, np.int32), rrev=rrev, srev=srev, irev=irev,
         right_sums=np.empty(W + D - 1, np.int16), right_k=np.empty(W + D - 1, np.int16),
         best=np.empty(W, np.int64), counts=np.zeros(2, np.int64),
@@ -246,7 +248,8 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     total += 2 * (H + workers) * W * D  # sum volume with one scratch row per worker
     slots = 2 + (W + H + 1) + (W + 2 * H + 1) + (W + 2)
     per_thread = 2 * E * slots + 2 * slots  # path vectors + minima
-    per_thread += 2 * 2 * D + 4 * D + 2 * 2 * (W + D) + 8 * W  # C, Ssum, hsum, right view, best
+    per_thread += 2 * D + 2 * W * D + 2 * W + 2 * D + 4 * D + 2 * 2 * (W + D) + 8 * W  # C, row sums and minima,
+    # k index, hsum, right view, best
     if kind != CENSUS:
         per_thread += 2 * (W + 2 * h) * D + 2 * 2 * 2 * (W + 2 * h + D)
     if kind != SAD:
@@ -260,23 +263,21 @@ def _placeholder(dtype, ndim: int) -> np.ndarray:
 
 
 def _prepare_cost(left, right, cost, census_window, threads=1) -> CostImages:
-    if cost in ("census", "census+grad"):
-        if threads >= 2:
-            fut = _pool(1).submit(census_quarters, right, census_window)
-            lcode = census_quarters(left, census_window)
-            rcode = fut.result()
-        else:
-            lcode = census_quarters(left, census_window)
-            rcode = census_quarters(right, census_window)
-        if cost == "census":
-            return CostImages(left, lcode, rcode, *(_placeholder(np.int16, 2) for _ in range(4)))
-        lsob, _ = sad_prefilter(left)
-        rsob, _ = sad_prefilter(right)
-        # no intensity term: the kernels read no intensity image for census+grad
-        return CostImages(left, lcode, rcode, lsob, _placeholder(np.int16, 2), rsob, _placeholder(np.int16, 2))
-    lsob, lint = sad_prefilter(left)
-    rsob, rint = sad_prefilter(right)
-    return CostImages(left, _placeholder(np.uint16, 3), _placeholder(np.uint16, 3), lsob, lint, rsob, rint)
+    def one(img):  # census quarters and / or the x-Sobel channel (with the image itself for SAD) of one image
+        code = census_quarters(img, census_window) if cost != "sad" else _placeholder(np.uint16, 3)
+        sob, inten = sad_prefilter(img) if cost != "census" else (_placeholder(np.int16, 2), None)
+        if cost != "sad":
+            inten = _placeholder(np.int16, 2)  # no intensity term: the kernels read no intensity image
+        return code, sob, inten
+
+    if threads >= 2:  # the right image in a pool thread meanwhile
+        fut = _pool(1).submit(one, right)
+        lcode, lsob, lint = one(left)
+        rcode, rsob, rint = fut.result()
+    else:
+        lcode, lsob, lint = one(left)
+        rcode, rsob, rint = one(right)
+    return CostImages(left, lcode, rcode, lsob, lint, rsob, rint)
 
 
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,

@@ -7,13 +7,14 @@ The directions are OpenCV MODE_SGBM_3WAY's: from the left, from above, from the 
 * a left-to-right sweep updates the top path (skewed row buffer, as in :mod:`.aggregate`: the vector of
   pixel ``x`` of row ``r`` is written at slot ``x - r + n_rows`` and its predecessor read one slot on) and
   the left path, and stores their sum per pixel (``srow``);
-* a right-to-left sweep adds the right path, keeping the complete sum in ``srow`` and its minimum per pixel;
-* ``select_row`` resolves the row (winner-takes-all, uniqueness, subpixel, right view, left-right check).
+* a right-to-left sweep adds the right path, keeping the complete sum in ``srow``, its minimum per pixel and
+  the right view's running winner per right pixel;
+* ``select.select_row`` resolves the row (winner-takes-all, uniqueness, subpixel, left-right check).
 
 Per thread this touches about 3 x W x D x 2 bytes (1 MB at 1242 x 128), which stays in L2, against a
 H x W x D volume written and read back by the two-pass kernel. The values are those of
-:func:`.aggregate.sgm_pass` run forward (left, top) then backward (right) over the same stripe: bit for bit
-(checked by the tests against the numpy reference and the two-pass kernel).
+:func:`.aggregate.sgm_pass` run forward (left, top) then backward (right) over the same stripe and warm-up rows,
+bit for bit (checked against the numpy reference by the tests).
 """
 
 from __future__ import annotations
@@ -25,9 +26,10 @@ from numba import njit
 
 from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr, _p2_at
 from stereo_classic.matching._kernels.cost import NoAliasCompiler, row_cost
-from stereo_classic.matching._kernels.intrinsics import add16, eq16, min16, pick16
+from stereo_classic.matching._kernels.intrinsics import add16, min16, pick16
+from stereo_classic.matching._kernels.select import select_row
 
-__all__ = ["RowPassBuffers", "StripePlan", "three_path_stripe", "select_row", "row_pass_buffers"]
+__all__ = ["RowPassBuffers", "StripePlan", "three_path_stripe", "row_pass_buffers", "row_pass_bytes"]
 
 _INT16_MAX = 32767
 _U = np.uint64  # unsigned flat indices: no wraparound code, contiguous vector loads
@@ -126,118 +128,6 @@ def row_pass_bytes(H: int, W: int, D: int) -> int:
     slots = W + H + 1
     return (2 * 2 * W * D + 2 * slots * E + 2 * slots + 2 * 2 * E + 4 + 2 * W + 2 * D + 2 * 2 * (W + D - 1)
             + 8 * W + 16 + 2 * 2 * W)
-
-
-@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def select_row(y, settings, dmin, bufs, out):  # pragma: no cover - numba
-    """Resolve row ``y`` from its complete sums (``bufs.srow``, minima ``bufs.row_min``, and the right view's
-    winners ``bufs.right_k`` that the right-to-left sweep made).
-
-    Winner-takes-all (first index of the minimum; disparities whose match is outside the right image always
-    sum higher than the others), uniqueness, parabola subpixel, then the left-right check of the row ("full":
-    against the right view's winner; "opencv": against the claims, ties to the largest x), and the right-view
-    disparity.
-    """
-    uniq = settings.uniqueness
-    lr_thr = settings.lr_threshold
-    lr_claims = settings.lr_claims
-    subpix = settings.subpixel
-    right_view = settings.right_view
-    srow = bufs.srow
-    nsrow = bufs.row_min
-    kidx = bufs.k_index
-    rv = bufs.right_sums
-    rd = bufs.right_k
-    best = bufs.best
-    counts = bufs.counts
-    ccost = bufs.claim_cost
-    ck = bufs.claim_k
-    disp = out.disparity
-    dispR = out.disparity_right
-    W = disp.shape[1]
-    D = kidx.shape[0]
-    big = np.int16(_INT16_MAX)
-    minus1 = np.int16(-1)
-    nan = np.float32(np.nan)
-    if lr_claims:
-        for q in range(W):
-            ccost[q] = big
-            ck[q] = minus1
-    for x in range(W):
-        k_lo = x - dmin - W + 1
-        if k_lo < 0:
-            k_lo = 0
-        k_hi = x - dmin
-        if k_hi > D - 1:
-            k_hi = D - 1
-        if k_lo > k_hi:
-            disp[y, x] = nan
-            best[x] = -1
-            continue
-        ns = nsrow[x]
-        db = x * D
-        bk16 = big
-        for k in range(D):  # first index of the minimum, in vector selects
-            bk16 = min16(bk16, pick16(eq16(srow[_U(db + k)], ns), kidx[k], big))
-        bk = np.int64(bk16)
-        best[x] = bk
-        if uniq > 0.0:
-            m2 = big
-            for k in range(k_lo, bk - 1):
-                m2 = min16(m2, srow[_U(db + k)])
-            for k in range(bk + 2, k_hi + 1):
-                m2 = min16(m2, srow[_U(db + k)])
-            if m2 < big and np.float64(m2) * (1.0 - uniq) < np.float64(ns):
-                disp[y, x] = nan
-                counts[0] += 1
-                continue
-        if lr_claims:  # the right pixel x - d is claimed by the lowest sum landing there (ties: the largest x)
-            xr = x - dmin - bk
-            if ns <= ccost[xr]:
-                ccost[xr] = ns
-                ck[xr] = np.int16(bk)
-        off = 0.0
-        if subpix and bk - 1 >= k_lo and bk + 1 <= k_hi:
-            sm_ = np.int64(srow[_U(db + bk - 1)])
-            sp_ = np.int64(srow[_U(db + bk + 1)])
-            den = sm_ + sp_ - 2 * np.int64(ns)
-            if den > 0:
-                off = (sm_ - sp_) / (2.0 * den)
-        disp[y, x] = np.float32(dmin + bk + off)
-    if lr_claims:
-        # reject x only when the claims at both x - floor(d) and x - ceil(d) disagree with it
-        for x in range(W):
-            dv = disp[y, x]
-            if dv != dv:
-                continue
-            t = np.float64(dv) - dmin
-            kf = np.int64(np.floor(t))
-            kc = np.int64(np.ceil(t))
-            xf = x - dmin - kf
-            xc = x - dmin - kc
-            bad_f = 0 <= xf < W and ck[xf] >= 0 and abs(np.float64(ck[xf] - kf)) > lr_thr
-            bad_c = 0 <= xc < W and ck[xc] >= 0 and abs(np.float64(ck[xc] - kc)) > lr_thr
-            if bad_f and bad_c:
-                disp[y, x] = nan
-                counts[1] += 1
-    if right_view and lr_thr >= 0.0 and not lr_claims:
-        # full check: |best - right-view winner at x - dmin - best| > lr_thr
-        for x in range(W):
-            b = best[x]
-            if b < 0 or disp[y, x] != disp[y, x]:
-                continue
-            q = W - 1 - x + b
-            if abs(np.float64(b - rd[q])) > lr_thr:
-                disp[y, x] = nan
-                counts[1] += 1
-    if right_view:
-        nq = rv.shape[0]
-        for xr in range(W):
-            q = W - 1 - dmin - xr
-            if 0 <= q < nq and rd[q] >= 0:
-                dispR[y, xr] = np.float32(dmin + rd[q])
-            else:
-                dispR[y, xr] = nan
 
 
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
@@ -371,4 +261,5 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
             for j in range(W * D):
                 Sf[_U(base + j)] = srow[_U(j)]
         if plan.select:
-            select_row(y, settings, dmin, bufs, out)
+            select_row(y, settings, dmin, srow, nsrow, kidx, rv, rd, bufs.best, bufs.counts, bufs.claim_cost,
+                       bufs.claim_k, out)

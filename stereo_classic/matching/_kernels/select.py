@@ -1,0 +1,131 @@
+"""Winner selection of one row of complete SGM sums (numba): ``select_row``, shared by both kernels.
+
+Winner-takes-all (the first index of the minimum), uniqueness, parabola subpixel, the left-right check
+("full": against the right view's winner from the same sums; "opencv": against the right pixels' claims) and
+the right-view disparity. The kernels call it once per row, while the row's sums are still in cache.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from stereo_classic.matching._kernels.cost import NoAliasCompiler
+from stereo_classic.matching._kernels.intrinsics import eq16, min16, pick16
+
+__all__ = ["select_row"]
+
+_INT16_MAX = 32767
+_U = np.uint64  # unsigned flat indices: no wraparound code, contiguous vector loads
+
+
+@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+def select_row(y, settings, dmin, sums, row_min, k_index, right_sums, right_k, best, counts, claim_cost, claim_k,
+               out):  # pragma: no cover - numba
+    """Resolve row ``y`` from its complete sums ``sums[x * D + k]`` (int16), their minima ``row_min[x]`` and the
+    right view's winners ``right_k`` (``right_sums`` / ``right_k`` per right pixel q = W - 1 - dmin - x_right:
+    the lowest sum landing there and its disparity index, ties to the smallest, made by the pass that summed).
+
+    Winner-takes-all (first index of the minimum; disparities whose match is outside the right image always
+    sum higher than the others), uniqueness, parabola subpixel, then the left-right check of the row ("full":
+    against the right view's winner; "opencv": against the claims, ties to the largest x), and the right-view
+    disparity.
+    """
+    uniq = settings.uniqueness
+    lr_thr = settings.lr_threshold
+    lr_claims = settings.lr_claims
+    subpix = settings.subpixel
+    right_view = settings.right_view
+    srow = sums
+    nsrow = row_min
+    kidx = k_index
+    rv = right_sums
+    rd = right_k
+    ccost = claim_cost
+    ck = claim_k
+    disp = out.disparity
+    dispR = out.disparity_right
+    W = disp.shape[1]
+    D = kidx.shape[0]
+    big = np.int16(_INT16_MAX)
+    minus1 = np.int16(-1)
+    nan = np.float32(np.nan)
+    if lr_claims:
+        for q in range(W):
+            ccost[q] = big
+            ck[q] = minus1
+    for x in range(W):
+        k_lo = x - dmin - W + 1
+        if k_lo < 0:
+            k_lo = 0
+        k_hi = x - dmin
+        if k_hi > D - 1:
+            k_hi = D - 1
+        if k_lo > k_hi:
+            disp[y, x] = nan
+            best[x] = -1
+            continue
+        ns = nsrow[x]
+        db = x * D
+        bk16 = big
+        for k in range(D):  # first index of the minimum, in vector selects
+            bk16 = min16(bk16, pick16(eq16(srow[_U(db + k)], ns), kidx[k], big))
+        bk = np.int64(bk16)
+        best[x] = bk
+        if uniq > 0.0:
+            m2 = big
+            for k in range(k_lo, bk - 1):
+                m2 = min16(m2, srow[_U(db + k)])
+            for k in range(bk + 2, k_hi + 1):
+                m2 = min16(m2, srow[_U(db + k)])
+            if m2 < big and np.float64(m2) * (1.0 - uniq) < np.float64(ns):
+                disp[y, x] = nan
+                counts[0] += 1
+                continue
+        if lr_claims:  # the right pixel x - d is claimed by the lowest sum landing there (ties: the largest x)
+            xr = x - dmin - bk
+            if ns <= ccost[xr]:
+                ccost[xr] = ns
+                ck[xr] = np.int16(bk)
+        off = 0.0
+        if subpix and bk - 1 >= k_lo and bk + 1 <= k_hi:
+            sm_ = np.int64(srow[_U(db + bk - 1)])
+            sp_ = np.int64(srow[_U(db + bk + 1)])
+            den = sm_ + sp_ - 2 * np.int64(ns)
+            if den > 0:
+                off = (sm_ - sp_) / (2.0 * den)
+        disp[y, x] = np.float32(dmin + bk + off)
+    if lr_claims:
+        # reject x only when the claims at both x - floor(d) and x - ceil(d) disagree with it
+        for x in range(W):
+            dv = disp[y, x]
+            if dv != dv:
+                continue
+            t = np.float64(dv) - dmin
+            kf = np.int64(np.floor(t))
+            kc = np.int64(np.ceil(t))
+            xf = x - dmin - kf
+            xc = x - dmin - kc
+            bad_f = 0 <= xf < W and ck[xf] >= 0 and abs(np.float64(ck[xf] - kf)) > lr_thr
+            bad_c = 0 <= xc < W and ck[xc] >= 0 and abs(np.float64(ck[xc] - kc)) > lr_thr
+            if bad_f and bad_c:
+                disp[y, x] = nan
+                counts[1] += 1
+    if right_view and lr_thr >= 0.0 and not lr_claims:
+        # full check: |best - right-view winner at x - dmin - best| > lr_thr
+        for x in range(W):
+            b = best[x]
+            if b < 0 or disp[y, x] != disp[y, x]:
+                continue
+            q = W - 1 - x + b
+            if abs(np.float64(b - rd[q])) > lr_thr:
+                disp[y, x] = nan
+                counts[1] += 1
+    if right_view:
+        nq = rv.shape[0]
+        for xr in range(W):
+            q = W - 1 - dmin - xr
+            if 0 <= q < nq and rd[q] >= 0:
+                dispR[y, xr] = np.float32(dmin + rd[q])
+            else:
+                dispR[y, xr] = nan
