@@ -24,7 +24,7 @@ import numpy as np
 
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching.params import SGMParams
-from stereo_classic.matching.postprocess import fill_holes, filter_speckles
+from stereo_classic.matching.postprocess import fill_holes_marked, filter_speckles
 
 __all__ = [
     "compute_disparity",
@@ -117,7 +117,7 @@ class DisparityMap:
                 for k, v in self.validity.items()):
             raise ValueError(f"`validity` must map names to non-negative pixel counts or None, got {self.validity!r}")
         validity = {k: (None if v is None else int(v)) for k, v in self.validity.items()}
-        n_valid = int(np.isfinite(disp).sum())
+        n_valid = int(np.count_nonzero(np.isfinite(disp)))
         if validity.get("valid", n_valid) != n_valid or validity.get("pixels", disp.size) != disp.size:
             raise ValueError(f"`validity` does not describe `disparity`: it says {validity.get('valid')} valid of "
                              f"{validity.get('pixels')}, the map has {n_valid} of {disp.size}")
@@ -129,7 +129,7 @@ class DisparityMap:
             if not isinstance(filled, np.ndarray) or filled.shape != disp.shape or filled.dtype != np.bool_:
                 raise ValueError(f"`filled` must be None or a bool array of shape {disp.shape}, got "
                                  f"{getattr(filled, 'shape', type(filled).__name__)} {getattr(filled, 'dtype', '')}")
-            if not np.isfinite(disp[filled]).all():
+            if np.count_nonzero(filled & np.isnan(disp)):
                 raise ValueError("`filled` marks pixels whose disparity is unknown (NaN)")
 
     @property
@@ -447,25 +447,23 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     t2 = time.perf_counter()
 
     disparity = np.asarray(disparity, dtype=np.float32)
-    unknown_matcher = int(np.isnan(disparity).sum())
+    unknown_matcher = int(np.count_nonzero(np.isnan(disparity)))
     reach = _reach(disparity.shape[1], params)
     short = _short_reach(reach, params)
     short_range = 0
     if short.any():  # border pixels that could search too little of the range: not a measurement
-        short_range = int(np.isfinite(disparity[:, short]).sum())
+        short_range = int(np.count_nonzero(np.isfinite(disparity[:, short])))
         disparity = disparity.copy() if not disparity.flags.writeable else disparity
         disparity[:, short] = np.nan
     valid_before = disparity.size - unknown_matcher - short_range
     if params.speckle_size > 0:
         disparity = filter_speckles(disparity, max_size=params.speckle_size, max_diff=params.speckle_range)
-    valid_after_speckle = int(np.isfinite(disparity).sum())
+    valid_after_speckle = int(np.count_nonzero(np.isfinite(disparity)))
     filled = 0
     filled_mask = None
     if params.fill_holes:
-        before = np.isfinite(disparity)
-        disparity = fill_holes(disparity)
-        filled_mask = np.isfinite(disparity) & ~before
-        filled = int(filled_mask.sum())
+        disparity, filled_mask = fill_holes_marked(disparity)
+        filled = int(np.count_nonzero(filled_mask))
     border = reach < params.num_disparities  # the full range does not fit: matched with the range that does
     t3 = time.perf_counter()
 
@@ -487,7 +485,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         "speckle_removed": valid_before - valid_after_speckle,
         "filled": filled,
         "border": int(border.sum()) * disparity.shape[0],
-        "border_valid": int(np.isfinite(disparity[:, border]).sum()),
+        "border_valid": int(np.count_nonzero(np.isfinite(disparity[:, border]))),
     }
     if disparity_right is not None:
         disparity_right = np.asarray(disparity_right, dtype=np.float32)

@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 from numba import njit
 
-__all__ = ["filter_speckles", "fill_holes"]
+__all__ = ["filter_speckles", "fill_holes", "fill_holes_marked"]
 
 # int16 value that marks unknown pixels for cv2.filterSpeckles (it skips pixels equal to newVal).
 _UNKNOWN_I16 = np.iinfo(np.int16).min
@@ -53,21 +53,56 @@ def filter_speckles(disparity: np.ndarray, *, max_size: int, max_diff: float) ->
     disp = _check_disparity(disparity)
     if max_size < 0 or not np.isfinite(max_diff) or max_diff < 0:
         raise ValueError(f"`max_size` and `max_diff` must be non-negative, got {max_size!r} and {max_diff!r}")
-    out = disp.copy()
-    valid = np.isfinite(disp)
-    if max_size == 0 or not valid.any():
-        return out
-    # fmin / fmax skip NaN without the copies nanmin / nanmax make
-    magnitude = max(abs(float(np.fmin.reduce(disp, axis=None))), abs(float(np.fmax.reduce(disp, axis=None))))
+    disp = np.ascontiguousarray(disp)
+    lo, hi, n_valid = _finite_range(disp)
+    if max_size == 0 or n_valid == 0:
+        return disp.copy()
+    magnitude = max(abs(float(lo)), abs(float(hi)))
     scale = 16.0 if magnitude * 16.0 <= _I16_LIMIT else _I16_LIMIT / magnitude
-    work = disp * np.float32(scale)
-    np.rint(work, out=work)
-    work[~valid] = _UNKNOWN_I16
-    scaled = work.astype(np.int16)
+    scaled = np.empty(disp.shape, np.int16)
+    _to_scaled_int16(disp, np.float32(scale), np.int16(_UNKNOWN_I16), scaled)
     max_diff_scaled = int(round(max_diff * scale))
     cv2.filterSpeckles(scaled, _UNKNOWN_I16, int(max_size), max_diff_scaled)
-    out[scaled == _UNKNOWN_I16] = np.nan
+    out = np.empty_like(disp)
+    _unknown_where(disp, scaled, np.int16(_UNKNOWN_I16), out)
     return out
+
+
+@njit(cache=True, nogil=True)
+def _finite_range(disp):  # pragma: no cover - numba
+    """(smallest, largest, count) of the finite values (0, 0, 0 when there is none)."""
+    lo = np.float32(np.inf)
+    hi = np.float32(-np.inf)
+    n = 0
+    for v in disp.ravel():
+        if np.isfinite(v):
+            lo = min(lo, v)
+            hi = max(hi, v)
+            n += 1
+    if n == 0:
+        return np.float32(0), np.float32(0), 0
+    return lo, hi, n
+
+
+@njit(cache=True, nogil=True)
+def _to_scaled_int16(disp, scale, unknown, out):  # pragma: no cover - numba
+    """out = rint(disp * scale) as int16 (float32 arithmetic, ties to even), ``unknown`` where disp is not finite."""
+    d = disp.ravel()
+    o = out.ravel()
+    for i in range(d.size):
+        v = d[i]
+        o[i] = np.int16(np.rint(v * scale)) if np.isfinite(v) else unknown
+
+
+@njit(cache=True, nogil=True)
+def _unknown_where(disp, scaled, unknown, out):  # pragma: no cover - numba
+    """out = disp, NaN where ``scaled`` holds ``unknown`` (removed by the speckle filter, or unknown before)."""
+    d = disp.ravel()
+    s = scaled.ravel()
+    o = out.ravel()
+    nan = np.float32(np.nan)
+    for i in range(d.size):
+        o[i] = nan if s[i] == unknown else d[i]
 
 
 @njit(cache=True, nogil=True)
@@ -118,20 +153,26 @@ def fill_holes(disparity: np.ndarray) -> np.ndarray:
     (H, W) float32
         A new map.
     """
-    disp = _check_disparity(disparity)
+    return fill_holes_marked(disparity)[0]
+
+
+def fill_holes_marked(disparity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``fill_holes``, and the (H, W) bool mask of the pixels it filled (unknown before, known after)."""
+    disp = np.ascontiguousarray(_check_disparity(disparity))
     valid = np.isfinite(disp)
     if valid.all() or not valid.any():
-        return disp.copy()
+        return disp.copy(), np.zeros(disp.shape, np.bool_)
     filled = np.empty_like(disp)
     still_unknown = np.empty(disp.shape, dtype=np.bool_)
-    _background_fill(np.ascontiguousarray(disp), filled, still_unknown)
+    _background_fill(disp, filled, still_unknown)
     median = cv2.medianBlur(filled, 3)
+    if not still_unknown.any():  # every row has a known pixel: every hole takes the median of the filled map
+        return np.where(valid, disp, median), ~valid
     holes = ~valid & ~still_unknown
     out = disp.copy()
     out[holes] = filled[holes]
-    if still_unknown.any():  # the median must not see the placeholder of rows without any known pixel
-        near_empty = cv2.dilate(still_unknown.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
-        holes &= ~near_empty
-    out[holes] = median[holes]
+    # the median must not see the placeholder of rows without any known pixel
+    near_empty = cv2.dilate(still_unknown.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
+    out[holes & ~near_empty] = median[holes & ~near_empty]
     out[still_unknown] = np.nan
-    return out
+    return out, holes

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from stereo_classic.matching.postprocess import fill_holes, filter_speckles
+from stereo_classic.matching.postprocess import fill_holes, fill_holes_marked, filter_speckles
 
 
 # --------------------------------------------------------------------------------------------------
@@ -127,3 +127,34 @@ def test_fill_holes_equals_the_numpy_definition_on_random_maps():
         if rng.random() < 0.3:
             d[int(rng.integers(0, h))] = np.nan  # a row without any known pixel
         np.testing.assert_array_equal(fill_holes(d), _fill_reference(d))
+        out, mask = fill_holes_marked(d)
+        np.testing.assert_array_equal(out, _fill_reference(d))
+        np.testing.assert_array_equal(mask, ~np.isfinite(d) & np.isfinite(out))
+
+
+def _speckle_reference(disp, max_size, max_diff):
+    """The speckle filter written with numpy: scale to 1/16 px int16 (less for large magnitudes), OpenCV's filter."""
+    out = disp.copy()
+    valid = np.isfinite(disp)
+    if max_size == 0 or not valid.any():
+        return out
+    magnitude = float(np.abs(disp[valid]).max())
+    scale = 16.0 if magnitude * 16.0 <= 32000.0 else 32000.0 / magnitude
+    work = np.where(valid, np.rint(np.where(valid, disp, 0) * np.float32(scale)), -32768).astype(np.int16)
+    cv2.filterSpeckles(work, -32768, int(max_size), int(round(max_diff * scale)))
+    out[work == -32768] = np.nan
+    return out
+
+
+def test_filter_speckles_equals_the_numpy_definition_on_random_maps():
+    rng = np.random.default_rng(8)
+    for i in range(120):
+        h, w = int(rng.integers(1, 30)), int(rng.integers(1, 40))
+        d = np.round(rng.uniform(-5, 60, (h, w)) * 4).astype(np.float32) / 4  # plateaus and speckles
+        d[rng.random((h, w)) < rng.uniform(0, 0.5)] = np.nan
+        if i % 10 == 0:
+            d[0, 0] = np.inf  # not finite: unknown
+        if i % 17 == 0:
+            d *= np.float32(700.0)  # magnitudes beyond 2000 px: a coarser scale
+        size, diff = int(rng.integers(0, 12)), float(rng.choice([0.0, 0.5, 2.0]))
+        np.testing.assert_array_equal(filter_speckles(d, max_size=size, max_diff=diff), _speckle_reference(d, size, diff))
