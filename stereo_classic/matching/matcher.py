@@ -349,7 +349,7 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
     Returns
     -------
     int
-        Bytes: the kernels' working memory (cost/sum volume and row buffers) plus the grey
+        Bytes: the kernels' working memory (row buffers; the sum volume for 4 and 8 paths) plus the grey
         copies, the output maps and the post-processing temporaries.
     """
     params = SGMParams() if params is None else params
@@ -360,7 +360,7 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
         raise ValueError(f"`image_shape` must be (H, W) or (H, W, C) of non-negative integers, got {image_shape!r}")
     height, width = int(image_shape[0]), int(image_shape[1])
     pixels = height * width
-    # the kernels: sum volume, their outputs (left and right float32 disparity), cost inputs, row buffers
+    # the kernels: row buffers (and the sum volume of 4 / 8 paths), outputs (left and right float32), cost inputs
     core = kernels.memory_bytes(height, width, params.num_disparities, paths=params.paths,
                                 lr_check=params.lr_check is not None, cost=params.cost,
                                 block_size=params.block_size, threads=params.effective_threads)
@@ -528,9 +528,10 @@ def compute_disparity(left: Any, right: Any, params: SGMParams | None = None, **
 class StereoMatcher:
     """Holds parameters for a sequence of frames and reuses what it can between frames of one size.
 
-    Per image size and dtype the memory budget is checked once; the kernels' sum volume and row
-    buffers (about ``2 * H * W * num_disparities`` bytes) are kept and reused, which saves their
-    allocation and page faults on every frame. The buffers stay allocated while the matcher lives
+    Per image size and dtype the memory budget is checked once; the kernels' buffers (row buffers for
+    3 paths, about ``2 * num_disparities * (4 * W + H)`` bytes per thread; with 4 or 8 paths also the
+    ``2 * H * W * num_disparities``-byte sum volume) are kept and reused, which saves their allocation and page
+    faults on every frame. The buffers stay allocated while the matcher lives
     (they are replaced when the image size changes; ``release()`` frees them). Safe to share between
     threads: a call that finds the buffers busy allocates its own, after checking that its estimate
     plus the busy call's fits in the memory limit (``MemoryBudgetError`` otherwise).
