@@ -642,8 +642,9 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                     for j in range(k_hi - k_lo + 1):
                         sv = dst[_U(b0 + j)]
                         old = rv[_U(q0 + j)]
+                        le = sv <= old
                         rv[_U(q0 + j)] = min16(sv, old)
-                        rd[_U(q0 + j)] = pick16(sv <= old, kidx[k_lo + j], rd[_U(q0 + j)])
+                        rd[_U(q0 + j)] = pick16(le, np.int16(k_lo + j), rd[_U(q0 + j)])
         if select:
             sums_row = Sf[_U(y * W * D):_U((y + 1) * W * D)] if keep_sums else Srow
             select_row(y, settings, dmin, sums_row, nsrow, kidx, rv, rd, best, counts, ccost, ck, out)

@@ -245,7 +245,7 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
                     ns = min16(ns, sm)
                     old = rv[_U(q0 + k)]
                     rv[_U(q0 + k)] = min16(sm, old)
-                    rd[_U(q0 + k)] = pick16(sm <= old, kidx[k], rd[_U(q0 + k)])
+                    rd[_U(q0 + k)] = pick16(sm <= old, np.int16(k), rd[_U(q0 + k)])
             else:
                 for k in range(D):
                     vh = _lr(PH, rh, crow[_U(cb + k)], mh, qh, p1, k)
