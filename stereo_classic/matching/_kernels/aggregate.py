@@ -57,11 +57,10 @@ from stereo_classic.matching._kernels.intrinsics import (
     add16,
     and16,
     min16,
-    pick16,
     popxor16,
     sub16,
 )
-from stereo_classic.matching._kernels.select import select_row
+from stereo_classic.matching._kernels.select import right_view_row, select_row
 
 __all__ = ["check_penalties", "cost_scale", "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
            "ALL_PATHS", "FOUR_PATHS", "THREE_PATHS", "PATH_NAMES", "PATH_STEPS", "grad_mul"]
@@ -425,10 +424,6 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
         for k in range(D):
             PH[k + 1] = zero
         MH[0] = zero
-        if select and right_view:
-            for q in range(rv.shape[0]):
-                rv[q] = big
-                rd[q] = minus1
         for i in range(W):
             x = i if forward else W - 1 - i
             # --- cost of pixel (y, x) (census written out here: a call per pixel costs as much). For
@@ -632,19 +627,10 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                         Sf[_U(sb + k)] = add16(and16(vh, mk0), and16(vv, mk1))
             MH[whs] = nh
             MV[wvs] = nv
-            # --- a complete pixel (backward pass, selecting): its minimum, and the right view's running winner per
-            # right pixel (x falling, <=: ties keep the smallest k); the row is resolved at its end by select_row
-            if select:
+            if select:  # a complete pixel (backward pass, selecting): its minimum; the row is resolved at its end
                 nsrow[x] = ns
-                if right_view and k_lo <= k_hi:
-                    b0 = db + k_lo
-                    q0 = W - 1 - x + k_lo  # right pixel x - dmin - k sits at q = W - 1 - x + k
-                    for j in range(k_hi - k_lo + 1):
-                        sv = dst[_U(b0 + j)]
-                        old = rv[_U(q0 + j)]
-                        le = sv <= old
-                        rv[_U(q0 + j)] = min16(sv, old)
-                        rd[_U(q0 + j)] = pick16(le, np.int16(k_lo + j), rd[_U(q0 + j)])
         if select:
             sums_row = Sf[_U(y * W * D):_U((y + 1) * W * D)] if keep_sums else Srow
+            if right_view:
+                right_view_row(sums_row, rv, rd, W, D)
             select_row(y, settings, dmin, sums_row, nsrow, kidx, rv, rd, best, counts, ccost, ck, out)

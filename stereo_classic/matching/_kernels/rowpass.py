@@ -7,9 +7,9 @@ The directions are OpenCV MODE_SGBM_3WAY's: from the left, from above, from the 
 * a left-to-right sweep updates the top path (skewed row buffer, as in :mod:`.aggregate`: the vector of
   pixel ``x`` of row ``r`` is written at slot ``x - r + n_rows`` and its predecessor read one slot on) and
   the left path, and stores their sum per pixel (``srow``);
-* a right-to-left sweep adds the right path, keeping the complete sum in ``srow``, its minimum per pixel and
-  the right view's running winner per right pixel;
-* ``select.select_row`` resolves the row (winner-takes-all, uniqueness, subpixel, left-right check).
+* a right-to-left sweep adds the right path, keeping the complete sum in ``srow`` and its minimum per pixel;
+* ``select.right_view_row`` finds the right view's winners and ``select.select_row`` resolves the row
+  (winner-takes-all, uniqueness, subpixel, left-right check).
 
 Per thread this touches about 3 x W x D x 2 bytes (1 MB at 1242 x 128), which stays in L2, against a
 H x W x D volume written and read back by the two-pass kernel. The values are those of
@@ -26,8 +26,8 @@ from numba import njit
 
 from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr, _p2_at
 from stereo_classic.matching._kernels.cost import NoAliasCompiler, row_cost
-from stereo_classic.matching._kernels.intrinsics import add16, min16, pick16
-from stereo_classic.matching._kernels.select import select_row
+from stereo_classic.matching._kernels.intrinsics import add16, min16
+from stereo_classic.matching._kernels.select import right_view_row, select_row
 
 __all__ = ["RowPassBuffers", "StripePlan", "three_path_stripe", "row_pass_buffers", "row_pass_bytes"]
 
@@ -166,7 +166,6 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     rv = bufs.right_sums
     rd = bufs.right_k
     right_view = settings.right_view
-    minus1 = np.int16(-1)
     Sf = out.sums
     D = bufs.k_index.shape[0]
     E = D + 2
@@ -219,10 +218,6 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
         for k in range(D):
             PH[k + 1] = zero
         MH[0] = zero
-        if right_view:
-            for q in range(rv.shape[0]):
-                rv[q] = big
-                rd[q] = minus1
         for i in range(W):
             x = W - 1 - i
             cb = x * D
@@ -234,28 +229,17 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
             rh = rhs * E
             nh = big
             ns = big
-            if right_view:  # the right view's running minimum, here where the sums are made (x falling, <=:
-                q0 = i  # ties keep the smallest k); q = W - 1 - x + k. Disparities whose match is outside the
-                for k in range(D):  # right image land on q of no right pixel, never read
-                    vh = _lr(PH, rh, crow[_U(cb + k)], mh, qh, p1, k)
-                    PH[_U(wh + 1 + k)] = vh
-                    nh = min16(nh, vh)
-                    sm = add16(vh, srow[_U(cb + k)])
-                    srow[_U(cb + k)] = sm
-                    ns = min16(ns, sm)
-                    old = rv[_U(q0 + k)]
-                    rv[_U(q0 + k)] = min16(sm, old)
-                    rd[_U(q0 + k)] = pick16(sm <= old, np.int16(k), rd[_U(q0 + k)])
-            else:
-                for k in range(D):
-                    vh = _lr(PH, rh, crow[_U(cb + k)], mh, qh, p1, k)
-                    PH[_U(wh + 1 + k)] = vh
-                    nh = min16(nh, vh)
-                    sm = add16(vh, srow[_U(cb + k)])
-                    srow[_U(cb + k)] = sm
-                    ns = min16(ns, sm)
+            for k in range(D):
+                vh = _lr(PH, rh, crow[_U(cb + k)], mh, qh, p1, k)
+                PH[_U(wh + 1 + k)] = vh
+                nh = min16(nh, vh)
+                sm = add16(vh, srow[_U(cb + k)])
+                srow[_U(cb + k)] = sm
+                ns = min16(ns, sm)
             MH[whs] = nh
             nsrow[x] = ns
+        if right_view:
+            right_view_row(srow, rv, rd, W, D)
         if plan.keep_sums:
             base = y * W * D
             for j in range(W * D):
