@@ -1,14 +1,15 @@
 """Speed probe of the SGM kernels against OpenCV StereoSGBM, side by side, interleaved.
 
     python -m benchmarks.sgm_speed [--data ../shared/data] [--repeat 15] [--disparities 128]
-                                   [--threads 2] [--cost census] [--paths 8] [--no-opencv]
+                                   [--threads 2] [--cost census+grad] [--paths 3] [--no-opencv]
                                    [--gap-ms 50] [--lr-mode full|opencv]
 
 Loads the KITTI pair (1242 x 375), greyscale, times every method once per repetition in a rotating
 order (so drift of a shared machine hits all alike), the first call apart (numba compile or cache
 load), and prints median/min ms, M disparity-estimates/s, ratios to each OpenCV mode, the kernel's
 per-stage ms and the peak memory it allocated (tracemalloc, numpy buffers) against 3 x W x H x D.
-Both sides use 2 threads, block 5 (OpenCV P1 8*25, P2 32*25) and a 1 px LR check.
+Both sides use 2 threads, block 5 (OpenCV P1 8*25, P2 32*25; the matcher its own penalties for the cost) and
+a 1 px LR check; the matcher's cost and paths default to its own defaults (census+grad, 3 paths).
 
     python -m benchmarks.sgm_speed --scaling [--repeat 5]
 
@@ -70,7 +71,12 @@ def opencv_runner(mode: int, num_disparities: int, block_size: int = 5):
 
 
 def sgm_runner(num_disparities: int, threads: int, cost: str, paths: int, workspace: bool = True, **kw):
+    import stereo_classic as sc
     from stereo_classic.matching._kernels.core import Workspace, sgm_match
+
+    defaults = sc.SGMParams(cost=cost)  # the matcher's penalties for this cost unless given
+    kw.setdefault("p1", defaults.effective_p1)
+    kw.setdefault("p2", defaults.effective_p2)
 
     stages: list[dict[str, float]] = []
     # buffers kept between calls, like the buffer inside a reused OpenCV StereoSGBM object
@@ -95,8 +101,8 @@ def _peak_bytes(fn, left, right) -> int:
     return peak
 
 
-def run(data: Path, *, repeat: int = 15, num_disparities: int = 128, threads: int = 2, cost: str = "census",
-        paths: int = 8, opencv: bool = True, gap_ms: float = 50.0, lr_mode: str = "full",
+def run(data: Path, *, repeat: int = 15, num_disparities: int = 128, threads: int = 2, cost: str = "census+grad",
+        paths: int = 3, opencv: bool = True, gap_ms: float = 50.0, lr_mode: str = "full",
         out=sys.stdout) -> dict[str, list[float]]:
     cv2.setNumThreads(threads)
     left, right = load_kitti_grey(data)
@@ -276,8 +282,9 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=15)
     ap.add_argument("--disparities", type=int, default=128)
     ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--cost", default="census", choices=["census+grad", "census", "sad"])
-    ap.add_argument("--paths", type=int, default=8, choices=[3, 4, 8])
+    ap.add_argument("--cost", default="census+grad", choices=["census+grad", "census", "sad"],
+                    help="matching cost (default: the matcher's, census+grad)")
+    ap.add_argument("--paths", type=int, default=3, choices=[3, 4, 8], help="paths (default: the matcher's, 3)")
     ap.add_argument("--no-opencv", action="store_true")
     ap.add_argument("--gap-ms", type=float, default=50.0, help="pause before every timed call (default 50)")
     ap.add_argument("--lr-mode", default="full", choices=["full", "opencv"], help="LR check of the matcher (1 px)")
