@@ -239,8 +239,8 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     E = D + 2
     workers = max(1, min(int(threads), len(stripes(H))))  # one set of row buffers per worker thread
     total = 2 * 4 * H * W  # left and right disparity
-    if kind != SAD:  # census codes, four uint16 quarters per pixel
-        total += 2 * 8 * H * W
+    if kind != SAD:  # census codes, four uint16 quarters per pixel, and the two padded images they are made from
+        total += 2 * 8 * H * W + 2 * (H + 20) * (W + 20)
     if kind != CENSUS:  # prefiltered images (gradient; and intensity for SAD)
         total += 2 * 2 * H * W * (2 if kind == SAD else 1) + 2 * (H + 2) * (W + 2) * 2
     if paths == 3:

@@ -388,6 +388,27 @@ def test_memory_bytes_counts_the_sum_volume():
     assert core.memory_bytes(H, W, D, cost="sad", block_size=7) > 2 * H * W * D
 
 
+@pytest.mark.parametrize("paths, cost", [(3, "census+grad"), (3, "sad"), (8, "census+grad"), (4, "census")])
+def test_memory_bytes_is_not_below_what_a_call_allocates(paths, cost):
+    """The estimate the matcher checks before allocating covers the kernels' real peak (tracemalloc)."""
+    import tracemalloc
+
+    left, right = _pair(62, h=120, w=150)
+    p = dict(p1=28, p2=112) if cost != "sad" else dict(p1=200, p2=800)
+    kw = dict(cost=cost, num_disparities=48, paths=paths, threads=2, **p)
+    core.sgm_match(left, right, **kw)  # compiled, pool started
+    tracemalloc.start()
+    try:
+        core.sgm_match(left, right, **kw)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    estimate = core.memory_bytes(120, 150, 48, paths=paths, cost=cost, threads=2)
+    assert peak <= estimate, (peak, estimate)
+    if paths == 3:  # no sum volume: well below one H x W x D int16 volume
+        assert estimate < 2 * 120 * 150 * 48
+
+
 def test_workspace_is_reused_and_gives_identical_results():
     left, right = _pair(61, h=20, w=40)
     ws = core.Workspace()
