@@ -425,13 +425,14 @@ def test_workspace_is_reused_and_gives_identical_results():
 
 @settings(max_examples=180, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(h=st.integers(1, 9), w=st.integers(1, 24), dmin=st.integers(-6, 6), D=st.integers(1, 20),
-       cost=st.sampled_from(["census", "sad"]), paths=st.sampled_from([4, 8]), seed=st.integers(0, 2**16),
+       cost=st.sampled_from(["census", "sad", "census+grad"]), paths=st.sampled_from([3, 4, 8]),
+       seed=st.integers(0, 2**16),
        lr=st.sampled_from([None, 0.0, 1.0]), uniq=st.sampled_from([0.0, 0.15]))
 def test_random_shapes_give_well_formed_results(h, w, dmin, D, cost, paths, seed, lr, uniq):
     rng = np.random.default_rng(seed)
     left = rng.integers(0, 256, (h, w), dtype=np.uint8)
     right = rng.integers(0, 256, (h, w), dtype=np.uint8)
-    p = dict(p1=P1, p2=P2) if cost == "census" else dict(p1=200, p2=800)
+    p = dict(p1=P1, p2=P2) if cost != "sad" else dict(p1=200, p2=800)
     d, dr, _ = core.sgm_match(left, right, cost=cost, min_disparity=dmin, num_disparities=D, paths=paths,
                               lr_check=lr, uniqueness=uniq, **p)
     assert d.shape == (h, w) and d.dtype == np.float32
@@ -441,8 +442,9 @@ def test_random_shapes_give_well_formed_results(h, w, dmin, D, cost, paths, seed
     assert np.all(d[ok] >= dmin - 0.5) and np.all(d[ok] <= dmin + D - 1 + 0.5)
     x = np.arange(w)[None, :].repeat(h, 0)
     assert np.all(x[ok] - np.round(d[ok]) >= -0.5) and np.all(x[ok] - np.round(d[ok]) <= w - 0.5)
-    if paths == 8 and lr is None and uniq == 0.0:
-        S = core.sum_volume(left, right, cost=cost, min_disparity=dmin, num_disparities=D, **p)
+    if lr is None and uniq == 0.0:
+        S = core.sum_volume(left, right, cost=cost, min_disparity=dmin, num_disparities=D,
+                            path_mask=core.PATH_MASKS[paths], **p)
         want, _ = ref.select_reference(S, dmin, uniqueness=0.0, lr_check=None)
         np.testing.assert_array_equal(d, want)
 
