@@ -135,6 +135,9 @@ class OnnxDetector:
         opts.inter_op_num_threads = 1
         if threads is not None:
             opts.intra_op_num_threads = int(threads)
+        # onnxruntime's worker threads busy-wait for the next run by default; in a pipeline the stereo matcher
+        # runs next, and the spinning threads would take its cores
+        opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
         where = self.model_path if self.model_path is not None else "<model bytes>"
         try:
             self.session = ort.InferenceSession(source, sess_options=opts, providers=list(providers))
