@@ -29,7 +29,7 @@ import numpy as np
 
 from calib import RectifiedRig
 from calib.geometry import points_from_pixels
-from stereo_classic.guide.params import HEIGHT_RANGE, GuideParams
+from stereo_classic.guide.params import ESTIMATED_HEIGHT_RANGE, HEIGHT_RANGE, GuideParams
 
 __all__ = ["GroundPlane", "GroundTracker", "PointSample", "fit_ground", "sample_points"]
 
@@ -181,10 +181,126 @@ def _band(z: np.ndarray, focal_baseline: float) -> np.ndarray:
     return np.minimum(0.03 + 0.25 * z * z / focal_baseline, 0.10)
 
 
+@dataclass(frozen=True, eq=False)
+class _Surface:
+    """A distinct plane among one frame's RANSAC hypotheses, refitted (see :func:`fit_ground`)."""
+
+    up: np.ndarray
+    height_m: float
+    support: int          # candidate points within the inlier band
+    below: int            # candidate points clearly below it, nearer than its own points
+    reason: str           # "" when it may be the ground, else why not
+    points: np.ndarray    # (support, 3) its inliers, metres, camera frame
+    band: np.ndarray      # (support,) their inlier half-widths, metres
+
+    @property
+    def score(self) -> int:
+        return self.support - self.below
+
+    def under(self, other: _Surface) -> bool:
+        """Whether this surface lies below ``other``: most of its points are more than three inlier bands
+        under ``other``'s plane (a tilted copy of the same floor straddles it instead)."""
+        return bool(np.median(self.points @ other.up + other.height_m + 3 * self.band) < 0)
+
+
+def _refit(cand: np.ndarray, band: np.ndarray, up: np.ndarray, h: float, ref: np.ndarray
+           ) -> tuple[np.ndarray, float, np.ndarray]:
+    """Least-squares plane of the points within ``band`` of ``up . p + h = 0``, twice (the inliers of the first
+    refit are taken again): ``up`` (oriented like ``ref``), ``h`` and the final inlier mask."""
+    for _ in range(2):
+        inl = np.abs(cand @ up + h) < band
+        if inl.sum() < 3:
+            break
+        pts = cand[inl]
+        centre = pts.mean(axis=0)
+        _, _, vt = np.linalg.svd(pts - centre, full_matrices=False)
+        up = vt[2] if vt[2] @ ref > 0 else -vt[2]
+        h = float(-(up @ centre))
+    return up, h, np.abs(cand @ up + h) < band
+
+
+def _hypotheses(pts: np.ndarray, gen: np.random.Generator, iterations: int, ref: np.ndarray, limit: float,
+                max_roll_deg: float, height_range: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """3-point planes of ``pts`` that fit the prior: within ``limit`` radians of ``ref``, the roll and look-up
+    limits, the camera above them by a height in ``height_range``: ``(K, 3)`` unit ``up`` vectors and ``(K,)``
+    offsets ``h`` (``up . p + h = 0``)."""
+    triples = gen.integers(0, len(pts), size=(iterations, 3))
+    a, b, c = pts[triples[:, 0]], pts[triples[:, 1]], pts[triples[:, 2]]
+    normals = _cross(b - a, c - a)
+    norms = np.linalg.norm(normals, axis=1)
+    good = norms > 1e-9
+    normals[good] /= norms[good, None]
+    normals *= np.where(normals @ ref < 0, -1.0, 1.0)[:, None]          # orient towards the reference up
+    good &= (normals @ ref > math.cos(limit)) & (np.abs(normals[:, 0]) < math.sin(math.radians(max_roll_deg)))
+    good &= -normals[:, 2] > math.sin(math.radians(-5.0))     # a walker's camera does not look up at the floor
+    offsets = -np.einsum("ij,ij->i", normals, a)
+    good &= (offsets >= height_range[0]) & (offsets <= height_range[1])  # the camera above its ground
+    return normals[good], offsets[good]
+
+
+def _surfaces(cand: np.ndarray, focal_baseline: float, ref: np.ndarray, limit: float, max_roll_deg: float,
+              iterations: int, rng: int, height_range: tuple[float, float], min_width: float,
+              max_surfaces: int = 3) -> list[_Surface]:
+    """The distinct planes of ``cand`` ((N, 3) metres), found one after the other (sequential RANSAC: each
+    round samples the points no surface found so far explains, so a floor that holds fewer points than the
+    table above it is still found), each refitted and checked against the prior of a carried camera
+    (``reason`` says which check failed)."""
+    gen = np.random.default_rng(rng)
+    band = _band(cand[:, 2], focal_baseline)
+    step = max(1, len(cand) // 1500)                                       # hypotheses are scored on <= 1500
+    score_pts, score_band = cand[::step], band[::step]
+    remaining = np.ones(len(cand), bool)
+    out: list[_Surface] = []
+    min_support = max(30, 0.15 * len(cand))
+    for _ in range(max_surfaces):
+        rest = np.nonzero(remaining)[0]
+        if len(rest) < min_support:
+            break
+        normals, offsets = _hypotheses(cand[rest], gen, iterations, ref, limit, max_roll_deg, height_range)
+        if not len(normals):
+            break
+        sub = remaining[::step]
+        signed = score_pts @ normals.T + offsets[None, :]                 # (M, K) height above each plane
+        inlier = np.abs(signed) < score_band[:, None]
+        support = (inlier & sub[:, None]).sum(axis=0)
+        # Nothing lies under the ground (but a drop-off): points below a plane count against it, so a table
+        # top or a bed, with the floor under it, loses to the floor. Only those nearer than the plane's own
+        # points: beyond a floor's far edge a drop-off may lie below it.
+        reach = (inlier * score_pts[:, 2:3]).sum(axis=0) / np.maximum(inlier.sum(axis=0), 1)
+        below = ((signed < -3 * score_band[:, None]) & (score_pts[:, 2:3] < reach[None, :])).sum(axis=0)
+        k = int(np.argmax(support - below))
+        up, h, inl = _refit(cand, band, normals[k], float(offsets[k]), ref)
+        remaining &= ~inl & ~(np.abs(cand @ normals[k] + offsets[k]) < band)
+        if any(float(up @ s.up) > math.cos(math.radians(5.0)) and abs(h - s.height_m) < 0.1 for s in out):
+            continue                                                      # refitted onto a surface already kept
+        n_in = int(inl.sum())
+        signed_all = cand @ up + h
+        reach_all = float(cand[inl, 2].mean()) if n_in else 0.0
+        n_below = int(((signed_all < -3 * band) & (cand[:, 2] < reach_all)).sum())
+        plane = GroundPlane(up, h) if math.isfinite(h) else None
+        reason = ""
+        if n_in < min_support:
+            reason = "too small"
+        elif plane is None or not height_range[0] <= h <= height_range[1]:
+            reason = "height"
+        elif up @ ref < math.cos(limit) or abs(plane.roll_deg) > max_roll_deg or plane.pitch_deg < -5.0:
+            reason = "tilt"
+        elif n_below > 0.5 * n_in:
+            reason = "points below it"
+        if not reason:
+            g = plane.to_ground(cand[inl])
+            lo, hi = np.percentile(g[:, 0], [5, 95])
+            if hi - lo < min_width:
+                reason = "too narrow"
+        out.append(_Surface(up, h, n_in, n_below, reason, cand[inl], band[inl]))
+    return out
+
+
 def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane | None = None,
-               max_tilt_deg: float = 35.0, max_roll_deg: float = 15.0, iterations: int = 64, rng: int = 0
+               max_tilt_deg: float = 35.0, max_roll_deg: float = 15.0, iterations: int = 96, rng: int = 0,
+               height_range: tuple[float, float] = ESTIMATED_HEIGHT_RANGE, min_width: float = 1.0
                ) -> GroundPlane | None:
-    """The ground plane of one frame, or None when the points show none.
+    """The ground plane of one frame, or None when the points show none that fits a carried camera.
 
     Parameters
     ----------
@@ -192,18 +308,25 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
     focal_baseline : float, px * m (``f B`` of the rig: the depth error grows as ``Z**2 / (f B)``)
     prior : GroundPlane, optional
         The expected plane: hypotheses must be within ``max_tilt_deg / 2`` of its ``up`` and only points
-        within 0.5 m of it are used. Without one, ``up`` must be within ``max_tilt_deg`` of straight up
+        within 0.3 m of it are used. Without one, ``up`` must be within ``max_tilt_deg`` of straight up
         ((0, -1, 0)) and only the points below the camera in the lower half of the image are used. Only the
-        ``textured`` points take part when the sample says which they are. The roll
-        must stay below ``max_roll_deg``. A plane scores its supporting points minus the points below it: a
-        table top or a bed, with the floor under it, is not the floor.
+        ``textured`` points take part when the sample says which they are.
+    max_roll_deg : float, the largest sideways tilt of a ground
     iterations : int, RANSAC hypotheses; ``rng`` seeds them (deterministic).
+    height_range : (float, float), metres
+        Camera heights above a ground that a carried or worn camera can have
+        (:data:`ESTIMATED_HEIGHT_RANGE`); a plane giving another is not the ground.
 
     Returns
     -------
     GroundPlane or None
-        None when fewer than 30 points (or 15 % of the candidates) support the best plane, or the camera
-        height it gives is outside :data:`~stereo_classic.guide.params.HEIGHT_RANGE`.
+        The hypotheses are grouped into distinct surfaces (a hypothesis whose inliers are mostly those of a
+        larger one is the same surface), each refitted by least squares. A surface may be the ground when it
+        lies below the camera at a height in ``height_range``, is within the tilt and roll limits, holds at
+        least 30 points and 15 % of the candidates, and fewer points lie below it (nearer than its own) than
+        half its support. Of those, the *lowest* whose support minus the points below it is at least half the
+        best one's is the ground: a desk, a table top, a bed or a landing above the floor is a large plane, and
+        the floor is below it. None when no surface qualifies.
     """
     xyz, uv = points.xyz, points.uv
     if points.textured is not None:
@@ -217,44 +340,17 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
         ref, limit = np.array([0.0, -1.0, 0.0]), math.radians(max_tilt_deg)
     if len(cand) < 30:
         return None
-    gen = np.random.default_rng(rng)
-    band = _band(cand[:, 2], focal_baseline)
-    step = max(1, len(cand) // 1500)                                       # hypotheses are scored on <= 1500
-    score_pts, score_band = cand[::step], band[::step]
-    triples = gen.integers(0, len(cand), size=(iterations, 3))
-    a, b, c = cand[triples[:, 0]], cand[triples[:, 1]], cand[triples[:, 2]]
-    normals = _cross(b - a, c - a)
-    norms = np.linalg.norm(normals, axis=1)
-    good = norms > 1e-9
-    normals[good] /= norms[good, None]
-    normals *= np.where(normals @ ref < 0, -1.0, 1.0)[:, None]          # orient towards the reference up
-    good &= (normals @ ref > math.cos(limit)) & (np.abs(normals[:, 0]) < math.sin(math.radians(max_roll_deg)))
-    good &= -normals[:, 2] > math.sin(math.radians(-5.0))     # a walker's camera does not look up at the floor
-    if not good.any():
+    surfaces = [s for s in _surfaces(cand, focal_baseline, ref, limit, max_roll_deg, iterations, rng, height_range,
+                                     min_width) if not s.reason]
+    if not surfaces:
         return None
-    normals, a = normals[good], a[good]
-    offsets = -np.einsum("ij,ij->i", normals, a)                          # up . p + h = 0 on the plane
-    signed = score_pts @ normals.T + offsets[None, :]                     # (M, K) height above each plane
-    support = (np.abs(signed) < score_band[:, None]).sum(axis=0)
-    # Nothing lies under the ground (but a drop-off): points below a plane count against it, so a table top
-    # or a bed, with the floor under it, loses to the floor.
-    # Only those nearer than the plane's own points: beyond a floor's far edge a drop-off may lie below it.
-    inlier = np.abs(signed) < score_band[:, None]
-    reach = (inlier * score_pts[:, 2:3]).sum(axis=0) / np.maximum(support, 1)
-    below = ((signed < -3 * score_band[:, None]) & (score_pts[:, 2:3] < reach[None, :])).sum(axis=0)
-    best = int(np.argmax(support - below))
-    inl = cand[np.abs(cand @ normals[best] + offsets[best]) < band]
-    if len(inl) < max(30, 0.15 * len(cand)):
-        return None
-    centre = inl.mean(axis=0)
-    _, _, vt = np.linalg.svd(inl - centre, full_matrices=False)
-    up = vt[2] if vt[2] @ ref > 0 else -vt[2]
-    if up @ ref < math.cos(limit):
-        up = normals[best]
-    height = float(-(up @ centre))
-    if not HEIGHT_RANGE[0] <= height <= HEIGHT_RANGE[1]:
-        return None
-    return GroundPlane(up, height, "fitted", len(inl))
+    ground = max(surfaces, key=lambda s: s.score)
+    while True:                                            # the lowest large surface: step down while one is under
+        lower = [s for s in surfaces if s is not ground and s.under(ground)]
+        if not lower:
+            break
+        ground = max(lower, key=lambda s: s.score)
+    return GroundPlane(ground.up, ground.height_m, "fitted", ground.support)
 
 
 class GroundTracker:
