@@ -187,7 +187,7 @@ class _Surface:
 
     up: np.ndarray
     height_m: float
-    support: int          # candidate points within the inlier band
+    support: int          # candidate points within the inlier band (of those the fit works on)
     below: int            # candidate points clearly below it, nearer than its own points
     reason: str           # "" when it may be the ground, else why not
     points: np.ndarray    # (support, 3) its inliers, metres, camera frame
@@ -203,20 +203,32 @@ class _Surface:
         return bool(np.median(self.points @ other.up + other.height_m + 3 * self.band) < 0)
 
 
-def _refit(cand: np.ndarray, band: np.ndarray, up: np.ndarray, h: float, ref: np.ndarray
+#: Candidate points a fit works on (every k-th of them beyond): the plane of 1200 points is as good as that of
+#: 3000 for a ground seen over metres, and the cost of the hypotheses grows with the points.
+MAX_POINTS = 1200
+
+
+def _refit(cand: np.ndarray, band: np.ndarray, up: np.ndarray, h: float, ref: np.ndarray, rounds: int = 6
            ) -> tuple[np.ndarray, float, np.ndarray]:
-    """Least-squares plane of the points within ``band`` of ``up . p + h = 0``, twice (the inliers of the first
-    refit are taken again): ``up`` (oriented like ``ref``), ``h`` and the final inlier mask."""
-    for _ in range(2):
-        inl = np.abs(cand @ up + h) < band
+    """Least-squares plane of the points within ``band`` of ``up . p + h = 0``, repeated on the new plane's
+    inliers until they no longer change (at most ``rounds`` times): a floor seen over a short span of depth
+    leaves its pitch loosely pinned, and one refit from a hypothesis tilted by a few degrees stays tilted.
+    Returns ``up`` (oriented like ``ref``), ``h`` and the inlier mask."""
+    inl = np.abs(cand @ up + h) < band
+    for _ in range(rounds):
         if inl.sum() < 3:
             break
         pts = cand[inl]
         centre = pts.mean(axis=0)
-        _, _, vt = np.linalg.svd(pts - centre, full_matrices=False)
-        up = vt[2] if vt[2] @ ref > 0 else -vt[2]
+        d = pts - centre
+        normal = np.linalg.eigh(d.T @ d)[1][:, 0]             # the direction of least spread (3x3: cheap)
+        up = normal if normal @ ref > 0 else -normal
         h = float(-(up @ centre))
-    return up, h, np.abs(cand @ up + h) < band
+        new = np.abs(cand @ up + h) < band
+        if np.array_equal(new, inl):
+            break
+        inl = new
+    return up, h, inl
 
 
 def _hypotheses(pts: np.ndarray, gen: np.random.Generator, iterations: int, ref: np.ndarray, limit: float,
@@ -246,12 +258,13 @@ def _surfaces(cand: np.ndarray, focal_baseline: float, ref: np.ndarray, limit: f
     table above it is still found), each refitted and checked against the prior of a carried camera
     (``reason`` says which check failed)."""
     gen = np.random.default_rng(rng)
+    every = -(-len(cand) // MAX_POINTS)
+    cand = cand[::every]                                       # every k-th: at most MAX_POINTS (the cost)
+    min_support = max(30 / every, 0.15 * len(cand))            # 30 of all the candidates, 15 %
     band = _band(cand[:, 2], focal_baseline)
-    step = max(1, len(cand) // 1500)                                       # hypotheses are scored on <= 1500
-    score_pts, score_band = cand[::step], band[::step]
+    z = cand[:, 2]
     remaining = np.ones(len(cand), bool)
     out: list[_Surface] = []
-    min_support = max(30, 0.15 * len(cand))
     for _ in range(max_surfaces):
         rest = np.nonzero(remaining)[0]
         if len(rest) < min_support:
@@ -259,15 +272,14 @@ def _surfaces(cand: np.ndarray, focal_baseline: float, ref: np.ndarray, limit: f
         normals, offsets = _hypotheses(cand[rest], gen, iterations, ref, limit, max_roll_deg, height_range)
         if not len(normals):
             break
-        sub = remaining[::step]
-        signed = score_pts @ normals.T + offsets[None, :]                 # (M, K) height above each plane
-        inlier = np.abs(signed) < score_band[:, None]
-        support = (inlier & sub[:, None]).sum(axis=0)
+        signed = cand @ normals.T + offsets[None, :]                      # (N, K) height above each plane
+        inlier = (np.abs(signed) < band[:, None]).astype(np.float64)
+        support = remaining.astype(np.float64) @ inlier
         # Nothing lies under the ground (but a drop-off): points below a plane count against it, so a table
         # top or a bed, with the floor under it, loses to the floor. Only those nearer than the plane's own
         # points: beyond a floor's far edge a drop-off may lie below it.
-        reach = (inlier * score_pts[:, 2:3]).sum(axis=0) / np.maximum(inlier.sum(axis=0), 1)
-        below = ((signed < -3 * score_band[:, None]) & (score_pts[:, 2:3] < reach[None, :])).sum(axis=0)
+        reach = (z @ inlier) / np.maximum(inlier.sum(axis=0), 1)
+        below = ((signed < -3 * band[:, None]) & (z[:, None] < reach[None, :])).sum(axis=0)
         k = int(np.argmax(support - below))
         up, h, inl = _refit(cand, band, normals[k], float(offsets[k]), ref)
         remaining &= ~inl & ~(np.abs(cand @ normals[k] + offsets[k]) < band)
@@ -297,7 +309,7 @@ def _surfaces(cand: np.ndarray, focal_baseline: float, ref: np.ndarray, limit: f
 
 
 def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane | None = None,
-               max_tilt_deg: float = 35.0, max_roll_deg: float = 15.0, iterations: int = 96, rng: int = 0,
+               max_tilt_deg: float = 35.0, max_roll_deg: float = 15.0, iterations: int = 64, rng: int = 0,
                height_range: tuple[float, float] = ESTIMATED_HEIGHT_RANGE, min_width: float = 1.0
                ) -> GroundPlane | None:
     """The ground plane of one frame, or None when the points show none that fits a carried camera.
@@ -350,7 +362,8 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
         if not lower:
             break
         ground = max(lower, key=lambda s: s.score)
-    return GroundPlane(ground.up, ground.height_m, "fitted", ground.support)
+    support = int((np.abs(cand @ ground.up + ground.height_m) < _band(cand[:, 2], focal_baseline)).sum())
+    return GroundPlane(ground.up, ground.height_m, "fitted", support)
 
 
 class GroundTracker:
