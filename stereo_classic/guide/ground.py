@@ -68,7 +68,8 @@ class PointSample:
 
 
 def _texture(image: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Mean absolute horizontal central difference (grey levels) over a 3x3 grid of offsets 2 px apart."""
+    """Mean absolute horizontal central difference (grey levels) over a 3x3 grid of offsets 2 px apart, at
+    pixels ``(u, v)`` (the reference of :func:`_texture_grid`)."""
     grey = image if image.ndim == 2 else image[..., 1]          # green: close enough to grey for a texture test
     h, w = grey.shape[:2]
     ui, vi = u.astype(np.int64), v.astype(np.int64)
@@ -79,6 +80,20 @@ def _texture(image: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
             c = ui + du
             total += np.abs(grey[rows, np.clip(c + 1, 0, w - 1)].astype(np.float64)
                             - grey[rows, np.clip(c - 1, 0, w - 1)])
+    return total / 9.0
+
+
+def _texture_grid(image: np.ndarray, off: int, stride: int, shape: tuple[int, int]) -> np.ndarray:
+    """:func:`_texture` at every pixel ``(off + i stride, off + j stride)`` of a ``shape`` grid, from one
+    difference image and nine strided slices (the same numbers: edge padding is the clipping)."""
+    grey = image if image.ndim == 2 else image[..., 1]
+    padded = np.pad(grey.astype(np.int16), ((2, 2), (3, 3)), mode="edge")
+    diff = np.abs(padded[:, 2:] - padded[:, :-2])                        # diff[r + 2, c + 2]: around (r, c)
+    gh, gw = shape
+    total = np.zeros(shape, np.int32)
+    for dv in (-2, 0, 2):
+        for du in (-2, 0, 2):
+            total += diff[off + dv + 2::stride, off + du + 2::stride][:gh, :gw]
     return total / 9.0
 
 
@@ -101,7 +116,7 @@ def sample_points(disparity: np.ndarray, rig: RectifiedRig, *, stride: int = 4, 
     u, v = u[ok], v[ok]
     textured = None
     if image is not None and image.shape[:2] == disparity.shape:
-        textured = _texture(image, u, v) >= min_texture
+        textured = (_texture_grid(image, off, stride, keep.shape)[keep] >= min_texture)[ok]
     return PointSample(uv=np.column_stack([u, v]), xyz=xyz[ok], stride=stride, focal_px=float(rig.focal_px),
                        textured=textured)
 

@@ -155,3 +155,15 @@ def test_estimated_height_must_be_plausible():
     assert GroundTracker(GuideParams(camera_height=2.6)).update(sample, 36.0) is None
     given = GroundTracker(GuideParams(camera_height=2.6, camera_pitch=25.0)).update(sample, 36.0)
     assert given.height_m == 2.6
+
+
+@pytest.mark.parametrize("h, w, stride, channels", [(30, 40, 2, 1), (97, 131, 5, 3), (24, 24, 4, 1)])
+def test_texture_grid_equals_the_reference(h, w, stride, channels):
+    from stereo_classic.guide.ground import _texture, _texture_grid
+
+    rng = np.random.default_rng(h)
+    image = rng.integers(0, 256, (h, w) if channels == 1 else (h, w, 3)).astype(np.uint8)
+    off = stride // 2
+    vs, us = np.mgrid[off:h:stride, off:w:stride]
+    grid = _texture_grid(image, off, stride, vs.shape)
+    np.testing.assert_array_equal(grid.ravel(), _texture(image, us.ravel().astype(float), vs.ravel().astype(float)))
