@@ -265,62 +265,87 @@ def _hypotheses(pts: np.ndarray, gen: np.random.Generator, iterations: int, ref:
     return normals[good], offsets[good]
 
 
-def _surfaces(cand: np.ndarray, focal_baseline: float, ref: np.ndarray, limit: float, max_roll_deg: float,
-              iterations: int, rng: int, height_range: tuple[float, float], min_width: float,
-              max_surfaces: int = 3) -> list[_Surface]:
-    """The distinct planes of ``cand`` ((N, 3) metres), found one after the other (sequential RANSAC: each
-    round samples the points no surface found so far explains, so a floor that holds fewer points than the
-    table above it is still found), each refitted and checked against the prior of a carried camera
-    (``reason`` says which check failed)."""
-    gen = np.random.default_rng(rng)
-    every = -(-len(cand) // MAX_POINTS)
-    cand = cand[::every]                                       # every k-th: at most MAX_POINTS (the cost)
-    min_support = max(30 / every, 0.15 * len(cand))            # 30 of all the candidates, 15 %
-    band = _band(cand[:, 2], focal_baseline)
-    z = cand[:, 2]
-    remaining = np.ones(len(cand), bool)
-    out: list[_Surface] = []
-    for _ in range(max_surfaces):
-        rest = np.nonzero(remaining)[0]
-        if len(rest) < min_support:
-            break
-        normals, offsets = _hypotheses(cand[rest], gen, iterations, ref, limit, max_roll_deg, height_range)
+class _Search:
+    """The candidate points of one frame's ground search and the prior they are searched with."""
+
+    def __init__(self, cand: np.ndarray, focal_baseline: float, ref: np.ndarray, limit: float, max_roll_deg: float,
+                 iterations: int, rng: int, height_range: tuple[float, float], min_width: float) -> None:
+        self.gen = np.random.default_rng(rng)
+        every = -(-len(cand) // MAX_POINTS)
+        self.cand = cand[::every]                                  # every k-th: at most MAX_POINTS (the cost)
+        self.min_support = max(30 / every, 0.15 * len(self.cand))  # 30 of all the candidates, and 15 %
+        self.band = _band(self.cand[:, 2], focal_baseline)
+        self.ref, self.limit, self.max_roll_deg = ref, limit, max_roll_deg
+        self.iterations, self.height_range, self.min_width = iterations, height_range, min_width
+
+    def surface(self, mask: np.ndarray) -> tuple[_Surface | None, np.ndarray]:
+        """One RANSAC round on the points of ``mask``: the best plane, refitted on all the candidates and
+        checked (None: no hypothesis), and the points it explains (to leave out of the next round)."""
+        cand, band, z = self.cand, self.band, self.cand[:, 2]
+        explained = np.zeros(len(cand), bool)
+        rest = np.nonzero(mask)[0]
+        if len(rest) < 3:                # fewer may still make a plane whose inliers (all of them) are enough
+            return None, explained
+        normals, offsets = _hypotheses(cand[rest], self.gen, self.iterations, self.ref, self.limit,
+                                       self.max_roll_deg, self.height_range)
         if not len(normals):
-            break
+            return None, explained
         signed = cand @ normals.T + offsets[None, :]                      # (N, K) height above each plane
         inlier = (np.abs(signed) < band[:, None]).astype(np.float64)
-        support = remaining.astype(np.float64) @ inlier
+        support = mask.astype(np.float64) @ inlier
         # Nothing lies under the ground (but a drop-off): points below a plane count against it, so a table
         # top or a bed, with the floor under it, loses to the floor. Only those nearer than the plane's own
         # points: beyond a floor's far edge a drop-off may lie below it.
         reach = (z @ inlier) / np.maximum(inlier.sum(axis=0), 1)
         below = ((signed < -3 * band[:, None]) & (z[:, None] < reach[None, :])).sum(axis=0)
         k = int(np.argmax(support - below))
-        up, h, inl = _refit(cand, band, normals[k], float(offsets[k]), ref)
-        remaining &= ~inl & ~(np.abs(cand @ normals[k] + offsets[k]) < band)
-        if any(float(up @ s.up) > math.cos(math.radians(5.0)) and abs(h - s.height_m) < 0.1 for s in out):
-            continue                                                      # refitted onto a surface already kept
+        up, h, inl = _refit(cand, band, normals[k], float(offsets[k]), self.ref)
+        explained = inl | (np.abs(cand @ normals[k] + offsets[k]) < band)
+        return self._checked(up, h, inl), explained
+
+    def _checked(self, up: np.ndarray, h: float, inl: np.ndarray) -> _Surface:
+        cand, band = self.cand, self.band
         n_in = int(inl.sum())
-        signed_all = cand @ up + h
-        reach_all = float(cand[inl, 2].mean()) if n_in else 0.0
-        n_below = int(((signed_all < -3 * band) & (cand[:, 2] < reach_all)).sum())
+        reach = float(cand[inl, 2].mean()) if n_in else 0.0
+        n_below = int((((cand @ up + h) < -3 * band) & (cand[:, 2] < reach)).sum())
         plane = GroundPlane(up, h) if math.isfinite(h) else None
         reason = ""
-        if n_in < min_support:
+        if n_in < self.min_support:
             reason = "too small"
-        elif plane is None or not height_range[0] <= h <= height_range[1]:
+        elif plane is None or not self.height_range[0] <= h <= self.height_range[1]:
             reason = "height"
-        elif up @ ref < math.cos(limit) or abs(plane.roll_deg) > max_roll_deg or plane.pitch_deg < -5.0:
+        elif up @ self.ref < math.cos(self.limit) or abs(plane.roll_deg) > self.max_roll_deg \
+                or plane.pitch_deg < -5.0:
             reason = "tilt"
         elif n_below > 0.5 * n_in:
             reason = "points below it"
-        if not reason:
-            g = plane.to_ground(cand[inl])
-            lo, hi = np.percentile(g[:, 0], [5, 95])
-            if hi - lo < min_width:
+        else:
+            lateral = plane.to_ground(cand[inl])[:, 0]
+            lo, hi = np.percentile(lateral, [5, 95])
+            if hi - lo < self.min_width:
                 reason = "too narrow"
-        out.append(_Surface(up, h, n_in, n_below, reason, cand[inl], band[inl]))
-    return out
+        return _Surface(up, h, n_in, n_below, reason, cand[inl], band[inl])
+
+    def surfaces(self, rounds: int = 3) -> list[_Surface]:
+        """The distinct planes, found one after the other (sequential RANSAC: each round samples the points
+        no plane found so far explains, so a floor holding fewer points than the table above it is found)."""
+        remaining = np.ones(len(self.cand), bool)
+        out: list[_Surface] = []
+        for _ in range(rounds):
+            if remaining.sum() < self.min_support:
+                break
+            s, explained = self.surface(remaining)
+            if s is None:
+                break
+            remaining &= ~explained
+            if not any(float(s.up @ o.up) > math.cos(math.radians(5.0)) and abs(s.height_m - o.height_m) < 0.1
+                       for o in out):                                     # not refitted onto one already kept
+                out.append(s)
+        return out
+
+    def under(self, ground: _Surface) -> np.ndarray:
+        """(N,) bool: the candidates more than three inlier bands under ``ground``'s plane."""
+        return self.cand @ ground.up + ground.height_m < -3 * self.band
 
 
 def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane | None = None,
@@ -339,21 +364,26 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
         ((0, -1, 0)) and only the points below the camera in the lower half of the image are used. Only the
         ``textured`` points take part when the sample says which they are.
     max_roll_deg : float, the largest sideways tilt of a ground
-    iterations : int, RANSAC hypotheses; ``rng`` seeds them (deterministic).
+    iterations : int, RANSAC hypotheses per round; ``rng`` seeds them (deterministic).
     height_range : (float, float), metres
         Camera heights above a ground that a carried or worn camera can have
-        (:data:`ESTIMATED_HEIGHT_RANGE`); a plane giving another is not the ground.
+        (:data:`ESTIMATED_HEIGHT_RANGE`); hypotheses giving another are not tried.
+    min_width : float, metres
+        The ground's points must span this much across (5th to 95th percentile): a walking corridor fits on
+        it (a desk top beside a person, a stair tread seen end-on do not make a ground).
 
     Returns
     -------
     GroundPlane or None
-        The hypotheses are grouped into distinct surfaces (a hypothesis whose inliers are mostly those of a
-        larger one is the same surface), each refitted by least squares. A surface may be the ground when it
-        lies below the camera at a height in ``height_range``, is within the tilt and roll limits, holds at
-        least 30 points and 15 % of the candidates, and fewer points lie below it (nearer than its own) than
-        half its support. Of those, the *lowest* whose support minus the points below it is at least half the
-        best one's is the ground: a desk, a table top, a bed or a landing above the floor is a large plane, and
-        the floor is below it. None when no surface qualifies.
+        Up to three distinct planes are found one after the other (sequential RANSAC), each refitted by least
+        squares to convergence. A plane may be the ground when it lies below the camera at a height in
+        ``height_range``, within the tilt and roll limits, holds at least 30 points and 15 % of the
+        candidates, is ``min_width`` wide, and fewer points lie below it (nearer than its own) than half its
+        support. Of those the best supported is taken, then, while another plane lies under it (most of its
+        points three inlier bands or more below), that one: the lowest large plane (a desk, a table, a bed or
+        a crib above the floor is not the ground). A round of RANSAC on the points under the current choice
+        looks for such a plane when none of the three is. None when no plane qualifies: the ground is
+        unknown, and the guide says so rather than inventing one.
     """
     xyz, uv = points.xyz, points.uv
     if points.textured is not None:
@@ -367,15 +397,19 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
         ref, limit = np.array([0.0, -1.0, 0.0]), math.radians(max_tilt_deg)
     if len(cand) < 30:
         return None
-    surfaces = [s for s in _surfaces(cand, focal_baseline, ref, limit, max_roll_deg, iterations, rng, height_range,
-                                     min_width) if not s.reason]
+    search = _Search(cand, focal_baseline, ref, limit, max_roll_deg, iterations, rng, height_range, min_width)
+    surfaces = [s for s in search.surfaces() if not s.reason]
     if not surfaces:
         return None
     ground = max(surfaces, key=lambda s: s.score)
-    while True:                                            # the lowest large surface: step down while one is under
+    for _ in range(4):                                     # the lowest large surface: step down while one is under
         lower = [s for s in surfaces if s is not ground and s.under(ground)]
         if not lower:
-            break
+            found, _ = search.surface(search.under(ground))
+            if found is None or found.reason or not found.under(ground):
+                break
+            surfaces.append(found)
+            lower = [found]
         ground = max(lower, key=lambda s: s.score)
     support = int((np.abs(cand @ ground.up + ground.height_m) < _band(cand[:, 2], focal_baseline)).sum())
     return GroundPlane(ground.up, ground.height_m, "fitted", support)
