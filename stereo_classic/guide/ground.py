@@ -229,9 +229,9 @@ MAX_POINTS = 1200
 def _refit(cand: np.ndarray, band: np.ndarray, up: np.ndarray, h: float, ref: np.ndarray, rounds: int = 6
            ) -> tuple[np.ndarray, float, np.ndarray]:
     """Least-squares plane of the points within ``band`` of ``up . p + h = 0``, repeated on the new plane's
-    inliers until they no longer change (at most ``rounds`` times): a floor seen over a short span of depth
-    leaves its pitch loosely pinned, and one refit from a hypothesis tilted by a few degrees stays tilted.
-    Returns ``up`` (oriented like ``ref``), ``h`` and the inlier mask."""
+    inliers until it moves by less than 0.2 degrees and 5 mm (at most ``rounds`` times): a floor seen over a
+    short span of depth leaves its pitch loosely pinned, and one refit from a hypothesis tilted by a few
+    degrees stays tilted. Returns ``up`` (oriented like ``ref``), ``h`` and the inlier mask."""
     inl = np.abs(cand @ up + h) < band
     for _ in range(rounds):
         if inl.sum() < 3:
@@ -240,13 +240,17 @@ def _refit(cand: np.ndarray, band: np.ndarray, up: np.ndarray, h: float, ref: np
         centre = pts.mean(axis=0)
         d = pts - centre
         normal = np.linalg.eigh(d.T @ d)[1][:, 0]             # the direction of least spread (3x3: cheap)
-        up = normal if normal @ ref > 0 else -normal
-        h = float(-(up @ centre))
-        new = np.abs(cand @ up + h) < band
-        if np.array_equal(new, inl):
+        new_up = normal if normal @ ref > 0 else -normal
+        new_h = float(-(new_up @ centre))
+        settled = float(new_up @ up) > _SETTLED_COS and abs(new_h - h) < 0.005
+        up, h = new_up, new_h
+        inl = np.abs(cand @ up + h) < band
+        if settled:
             break
-        inl = new
     return up, h, inl
+
+
+_SETTLED_COS = math.cos(math.radians(0.2))
 
 
 def _hypotheses(pts: np.ndarray, gen: np.random.Generator, iterations: int, ref: np.ndarray, limit: float,
