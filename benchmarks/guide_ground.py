@@ -4,22 +4,25 @@ Each pair goes once through the pipeline (64 disparities, YOLOX-nano when presen
 fresh :class:`stereo_classic.guide.Guide` sees it alone, as one frame (how ``guide`` treats a single pair),
 and again as a still sequence of ``--frames`` frames at 10 fps (the ground tracker over frames: each frame's
 RANSAC has its own seed). Reported: the first frame's camera height and pitch (or "ground unknown"), the
-range of heights over the sequence and the first frame's events. ``--save DIR`` writes the overlay and the
-birds-eye view of the first frame (``NAME_overlay.png``, ``NAME_birdseye.png``), as ``guide --save`` does.
+range of heights over the sequence and the first frame's events; ``--seeds N`` adds the ground of the frame
+fitted alone (:func:`~stereo_classic.guide.fit_ground`, sampled as the guide samples) with RANSAC seeds 0 to N-1:
+how much one frame's estimate depends on the draw. ``--save DIR`` writes the overlay and the birds-eye view of
+the first frame (``NAME_overlay.png``, ``NAME_birdseye.png``), as ``guide --save`` does.
 
-    python -m benchmarks.guide_ground [--data DIR] [--frames N] [--save DIR]
+    python -m benchmarks.guide_ground [--data DIR] [--frames N] [--seeds N] [--save DIR]
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
 import cv2
 
 import calib
-from stereo_classic.guide import Guide
+from stereo_classic.guide import Guide, fit_ground, sample_points
 from stereo_classic.guide.render import draw_birdseye, draw_overlay
 from stereo_classic.io import read_image
 from stereo_classic.pipeline import Localizer
@@ -27,10 +30,11 @@ from stereo_classic.pipeline import Localizer
 __all__ = ["main", "measure"]
 
 
-def measure(data: Path, frames: int = 5, model: str | None = "yolox_nano", save: Path | None = None
-            ) -> list[dict]:
+def measure(data: Path, frames: int = 5, model: str | None = "yolox_nano", save: Path | None = None,
+            seeds: int = 0) -> list[dict]:
     """One dict per ``*_left.png`` in ``data``: ``scene``, ``height_m``, ``pitch_deg``, ``roll_deg`` (None:
-    ground unknown), ``heights`` (the sequence's), ``events`` (texts of the first frame)."""
+    ground unknown), ``heights`` (the sequence's), ``events`` (texts of the first frame), ``seeded``
+    (``(height_m, pitch_deg)`` or None per seed)."""
     rig = calib.load_rig(data / "stereodemo_calibration.json")
     lefts = sorted(data.glob("*_left.png"))
     if not lefts:
@@ -48,7 +52,16 @@ def measure(data: Path, frames: int = 5, model: str | None = "yolox_nano", save:
             seq = [guide.update(result, rig, i / 10.0, frame=scene) for i in range(max(1, frames))]
             first = seq[0]
             g = first.ground
-            rows.append({"scene": scene, "height_m": g.height_m if g else None,
+            seeded = []
+            if seeds:
+                disparity = result.disparity.disparity
+                h, w = disparity.shape
+                stride = max(2, round(math.sqrt(h * w / 12000.0)))        # as Guide samples a frame
+                pts = sample_points(disparity, rig, stride=stride, max_depth=max(2.5 * guide.params.look_ahead, 10.0),
+                                    image=result.left)
+                fits = [fit_ground(pts, rig.focal_px * rig.baseline_m, rng=i) for i in range(seeds)]
+                seeded = [(f.height_m, f.pitch_deg) if f else None for f in fits]
+            rows.append({"scene": scene, "seeded": seeded, "height_m": g.height_m if g else None,
                          "pitch_deg": g.pitch_deg if g else None, "roll_deg": g.roll_deg if g else None,
                          "heights": [f.ground.height_m if f.ground else None for f in seq],
                          "events": [e.text for e in first.events]})
@@ -68,6 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--data", default=str(Path(__file__).resolve().parents[2] / "shared" / "data" / "oakd"),
                         help="the OAK-D folder (default: ../shared/data/oakd)")
     parser.add_argument("--frames", type=int, default=5, help="frames of the still sequence (default 5)")
+    parser.add_argument("--seeds", type=int, default=0, help="also fit the frame alone with seeds 0..N-1")
     parser.add_argument("--save", default=None, help="folder for the first frame's overlay and birds-eye view")
     args = parser.parse_args(argv)
     data = Path(args.data)
@@ -77,15 +91,21 @@ def main(argv: list[str] | None = None) -> int:
     if args.frames < 1:
         print(f"error: --frames must be >= 1, got {args.frames}", file=sys.stderr)
         return 2
-    rows = measure(data, args.frames, save=Path(args.save) if args.save else None)
-    print("| scene | height m | pitch deg | roll deg | heights over the sequence | events (first frame) |")
-    print("|---|---|---|---|---|---|")
+    rows = measure(data, args.frames, save=Path(args.save) if args.save else None, seeds=max(0, args.seeds))
+    print("| scene | height m | pitch deg | roll deg | heights over the sequence | events (first frame) |"
+          + (f" seeds 0-{args.seeds - 1}: heights (fitted) |" if args.seeds > 0 else ""))
+    print("|---|---|---|---|---|---|" + ("---|" if args.seeds > 0 else ""))
     for r in rows:
         hs = [h for h in r["heights"] if h is not None]
         seq = f"{min(hs):.2f}-{max(hs):.2f} ({len(hs)}/{len(r['heights'])})" if hs else "ground unknown"
         first = "ground unknown" if r["height_m"] is None else _fmt(r["height_m"], ".2f")
-        print(f"| {r['scene']} | {first} | {_fmt(r['pitch_deg'], '.1f')} | {_fmt(r['roll_deg'], '.1f')} | {seq} | "
-              f"{'; '.join(r['events']) or '-'} |")
+        line = (f"| {r['scene']} | {first} | {_fmt(r['pitch_deg'], '.1f')} | {_fmt(r['roll_deg'], '.1f')} | {seq} | "
+                f"{'; '.join(r['events']) or '-'} |")
+        if r["seeded"]:
+            fitted = [hp[0] for hp in r["seeded"] if hp is not None]
+            line += (f" {min(fitted):.2f}-{max(fitted):.2f} ({len(fitted)}/{len(r['seeded'])}) |" if fitted
+                     else f" none (0/{len(r['seeded'])}) |")
+        print(line)
     return 0
 
 
