@@ -6,8 +6,10 @@ camera's height above it; ``up . p + height`` is then any point's height above t
 looks down by ``pitch`` degrees (no roll) has ``up = (0, -cos(pitch), -sin(pitch))``.
 
 :func:`sample_points` back-projects a grid of pixels (every ``stride``-th), :func:`fit_ground` finds the
-plane with RANSAC (3-point hypotheses near the expected orientation, a depth-dependent inlier band, then a
-least-squares refit), and :class:`GroundTracker` keeps one estimate over frames: small changes are smoothed,
+planes of the lower image one after the other with RANSAC (3-point hypotheses that fit a carried camera: below
+it, 0.3-2 m under it, near level; a depth-dependent inlier band, least-squares refits) and takes the lowest large
+one that is wide enough to walk on, or none ("ground unknown"), and :class:`GroundTracker` keeps one estimate
+over frames: small changes are smoothed,
 a lasting change (the camera was re-mounted) is adopted after a few frames, a frame without a fit keeps the
 last plane, and a given ``--camera-height`` / ``--camera-pitch`` replaces the estimate.
 
@@ -29,7 +31,11 @@ import numpy as np
 
 from calib import RectifiedRig
 from calib.geometry import points_from_pixels
-from stereo_classic.guide.params import ESTIMATED_HEIGHT_RANGE, HEIGHT_RANGE, GuideParams
+from stereo_classic.guide.params import (
+    ESTIMATED_HEIGHT_RANGE,
+    HEIGHT_RANGE,
+    GuideParams,
+)
 
 __all__ = ["GroundPlane", "GroundTracker", "PointSample", "fit_ground", "sample_points"]
 
