@@ -469,9 +469,10 @@ class GroundTracker:
             self.plane = self._given(None)
             return self.plane
         prior = self.plane
-        fit = fit_ground(points, focal_baseline, prior=prior, rng=self._frame)
+        width = self.params.corridor_width                  # the walking corridor must fit on the ground
+        fit = fit_ground(points, focal_baseline, prior=prior, rng=self._frame, min_width=width)
         if fit is None and prior is not None and self.plane is not None:
-            fit = fit_ground(points, focal_baseline, prior=None, rng=self._frame)   # the camera moved a lot
+            fit = fit_ground(points, focal_baseline, prior=None, rng=self._frame, min_width=width)   # moved a lot
         fit = self._given(fit)
         if fit is None:
             if self.plane is not None:

@@ -144,6 +144,9 @@ def test_a_desk_alone_is_not_the_ground():
     assert (np.abs(desk.heights(sample.xyz[sample.textured])) < 0.02).mean() > 0.3    # the desk is in view
     assert fit_ground(sample, fb) is None
     assert fit_ground(sample, fb, min_width=0.5).height_m == pytest.approx(0.45, abs=0.03)   # it is a plane
+    assert GroundTracker(GuideParams()).update(sample, fb) is None                  # the guide: corridor 1.0 m
+    narrow = GroundTracker(GuideParams(corridor_width=0.5)).update(sample, fb)       # a 0.5 m corridor fits on it
+    assert narrow.height_m == pytest.approx(0.45, abs=0.03)
 
 
 def test_estimated_height_must_be_plausible():
