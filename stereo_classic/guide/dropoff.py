@@ -13,8 +13,9 @@ warning there would be an invented distance.
 >>> from stereo_classic.guide import GuideParams
 >>> lat, f = (a.ravel() for a in np.meshgrid(np.linspace(-1, 1, 21), np.linspace(1.0, 6.0, 200)))
 >>> h = np.where(f < 3.0, 0.0, -0.4)                                        # 40 cm down at 3 m
->>> pts = np.column_stack([lat, f, h])
->>> drop = find_dropoff(pts, np.full(len(f), 0.01), GuideParams(), camera_height=1.2)
+>>> seen = (f < 3.0) | (f > 3.0 * (1.2 + 0.4) / 1.2)                          # hidden behind the edge
+>>> pts = np.column_stack([lat, f, h])[seen]
+>>> drop = find_dropoff(pts, np.full(len(pts), 0.01), GuideParams(), camera_height=1.2)
 >>> round(drop.distance_m, 1), round(drop.drop_m, 2)
 (3.0, 0.4)
 """
@@ -62,6 +63,37 @@ class DropOff:
         return clock_of(self.bearing_deg)
 
 
+#: Width of the directions (azimuth, degrees) in which a lower surface is compared with the ground before it:
+#: a few sample columns, narrow enough that an edge seen at an angle is at one distance within one.
+SLICE_DEG = 2.0
+
+
+def _beyond_the_ground(ground_points: np.ndarray, seen: np.ndarray, lower: np.ndarray, camera_height: float) -> bool:
+    """Whether the ``lower`` points are seen beyond the ``seen`` ground, as over an edge.
+
+    The ray to a point ``d`` under the ground at horizontal range ``r`` crosses the ground's plane at
+    ``r h / (h + d)``: a property of its pixel (depth noise moves the point along its ray). Over an edge the
+    lower surface shows only past the farthest ground in its direction (every such crossing lies beyond it);
+    a lower surface seen under ground of the same direction (nearer the feet in the image) is the floor in
+    front of a raised surface (a bed, a crib, a bench taken for the ground), or the plane is wrong. False when
+    more of the lower points with ground seen in their direction (2-degree slices of azimuth) are under it than
+    beyond it; True when none has (the edge is then nearer than the view, or outside it).
+    """
+    lat, fwd, hgt = ground_points[:, 0], ground_points[:, 1], ground_points[:, 2]
+    rng = np.hypot(lat, fwd)
+    crossing = rng * camera_height / np.maximum(camera_height - hgt, 1e-6)
+    direction = np.floor(np.degrees(np.arctan2(lat, fwd)) / SLICE_DEG).astype(np.int64)
+    if not seen.any() or not lower.any():
+        return True
+    lo = int(min(direction[seen].min(), direction[lower].min()))
+    farthest = np.full(int(max(direction[seen].max(), direction[lower].max())) - lo + 1, -np.inf)
+    np.maximum.at(farthest, direction[seen] - lo, crossing[seen])
+    ground_there = farthest[direction[lower] - lo]
+    judged = np.isfinite(ground_there)
+    under = int((crossing[lower][judged] < ground_there[judged]).sum())
+    return under <= int(judged.sum()) - under
+
+
 def find_dropoff(ground_points: np.ndarray, area: np.ndarray, params: GuideParams, *, camera_height: float,
                  bearing_deg: float = 0.0) -> DropOff | None:
     """The nearest drop-off along the strip at ``bearing_deg``, within ``params.look_ahead``, or None.
@@ -107,6 +139,9 @@ def find_dropoff(ground_points: np.ndarray, area: np.ndarray, params: GuideParam
     lower_near = along[below] >= first * BIN_M
     drop = float(-np.median(hgt[below][lower_near]))
     seen = level & (along < (first + 1) * BIN_M)
+    window = (along >= first * BIN_M) & (along < first * BIN_M + 0.5)     # where the lower surface outweighs
+    if not _beyond_the_ground(ground_points, level & (along < first * BIN_M + 0.5), below & window, camera_height):
+        return None
     if area[seen].sum() >= _MIN_AREA:
         edge = float(np.percentile(along[seen], 99))
     else:

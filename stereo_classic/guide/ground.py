@@ -6,8 +6,10 @@ camera's height above it; ``up . p + height`` is then any point's height above t
 looks down by ``pitch`` degrees (no roll) has ``up = (0, -cos(pitch), -sin(pitch))``.
 
 :func:`sample_points` back-projects a grid of pixels (every ``stride``-th), :func:`fit_ground` finds the
-plane with RANSAC (3-point hypotheses near the expected orientation, a depth-dependent inlier band, then a
-least-squares refit), and :class:`GroundTracker` keeps one estimate over frames: small changes are smoothed,
+planes of the lower image one after the other with RANSAC (3-point hypotheses that fit a carried camera: below
+it, 0.3-2 m under it, near level; a depth-dependent inlier band, least-squares refits) and takes the lowest large
+one that is wide enough to walk on, or none ("ground unknown"), and :class:`GroundTracker` keeps one estimate
+over frames: small changes are smoothed,
 a lasting change (the camera was re-mounted) is adopted after a few frames, a frame without a fit keeps the
 last plane, and a given ``--camera-height`` / ``--camera-pitch`` replaces the estimate.
 
@@ -29,7 +31,11 @@ import numpy as np
 
 from calib import RectifiedRig
 from calib.geometry import points_from_pixels
-from stereo_classic.guide.params import HEIGHT_RANGE, GuideParams
+from stereo_classic.guide.params import (
+    ESTIMATED_HEIGHT_RANGE,
+    HEIGHT_RANGE,
+    GuideParams,
+)
 
 __all__ = ["GroundPlane", "GroundTracker", "PointSample", "fit_ground", "sample_points"]
 
@@ -68,7 +74,8 @@ class PointSample:
 
 
 def _texture(image: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Mean absolute horizontal central difference (grey levels) over a 3x3 grid of offsets 2 px apart."""
+    """Mean absolute horizontal central difference (grey levels) over a 3x3 grid of offsets 2 px apart, at
+    pixels ``(u, v)`` (the reference of :func:`_texture_grid`)."""
     grey = image if image.ndim == 2 else image[..., 1]          # green: close enough to grey for a texture test
     h, w = grey.shape[:2]
     ui, vi = u.astype(np.int64), v.astype(np.int64)
@@ -80,6 +87,23 @@ def _texture(image: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
             total += np.abs(grey[rows, np.clip(c + 1, 0, w - 1)].astype(np.float64)
                             - grey[rows, np.clip(c - 1, 0, w - 1)])
     return total / 9.0
+
+
+def _texture_grid(image: np.ndarray, off: int, stride: int, shape: tuple[int, int]) -> np.ndarray:
+    """:func:`_texture` at every pixel ``(off + i stride, off + j stride)`` of a ``shape`` grid: the same
+    numbers, from the three rows and six columns around each grid pixel only (gathered once per offset)."""
+    grey = image if image.ndim == 2 else image[..., 1]
+    h, w = grey.shape[:2]
+    gh, gw = shape
+    rows = off + stride * np.arange(gh)
+    cols = off + stride * np.arange(gw)
+    c = (cols[None, :] + np.array([-2, 0, 2])[:, None]).ravel()             # the three column offsets at once
+    plus, minus = np.clip(c + 1, 0, w - 1), np.clip(c - 1, 0, w - 1)
+    total = np.zeros((gh, 3 * gw), np.int32)
+    for dv in (-2, 0, 2):
+        sub = grey[np.clip(rows + dv, 0, h - 1)].astype(np.int16)
+        total += np.abs(sub[:, plus] - sub[:, minus])
+    return total.reshape(gh, 3, gw).sum(axis=1) / 9.0
 
 
 def sample_points(disparity: np.ndarray, rig: RectifiedRig, *, stride: int = 4, max_depth: float = 30.0,
@@ -101,7 +125,7 @@ def sample_points(disparity: np.ndarray, rig: RectifiedRig, *, stride: int = 4, 
     u, v = u[ok], v[ok]
     textured = None
     if image is not None and image.shape[:2] == disparity.shape:
-        textured = _texture(image, u, v) >= min_texture
+        textured = (_texture_grid(image, off, stride, keep.shape)[keep] >= min_texture)[ok]
     return PointSample(uv=np.column_stack([u, v]), xyz=xyz[ok], stride=stride, focal_px=float(rig.focal_px),
                        textured=textured)
 
@@ -181,10 +205,167 @@ def _band(z: np.ndarray, focal_baseline: float) -> np.ndarray:
     return np.minimum(0.03 + 0.25 * z * z / focal_baseline, 0.10)
 
 
+@dataclass(frozen=True, eq=False)
+class _Surface:
+    """A distinct plane among one frame's RANSAC hypotheses, refitted (see :func:`fit_ground`)."""
+
+    up: np.ndarray
+    height_m: float
+    support: int          # candidate points within the inlier band (of those the fit works on)
+    below: int            # candidate points clearly below it, nearer than its own points
+    reason: str           # "" when it may be the ground, else why not
+    points: np.ndarray    # (support, 3) its inliers, metres, camera frame
+    band: np.ndarray      # (support,) their inlier half-widths, metres
+
+    @property
+    def score(self) -> int:
+        return self.support - self.below
+
+    def under(self, other: _Surface) -> bool:
+        """Whether this surface lies below ``other``: most of its points are more than three inlier bands
+        under ``other``'s plane (a tilted copy of the same floor straddles it instead)."""
+        return bool(np.median(self.points @ other.up + other.height_m + 3 * self.band) < 0)
+
+
+#: Candidate points a fit works on (every k-th of them beyond): the plane of 1200 points is as good as that of
+#: 3000 for a ground seen over metres, and the cost of the hypotheses grows with the points.
+MAX_POINTS = 1200
+
+
+def _refit(cand: np.ndarray, band: np.ndarray, up: np.ndarray, h: float, ref: np.ndarray, rounds: int = 6
+           ) -> tuple[np.ndarray, float, np.ndarray]:
+    """Least-squares plane of the points within ``band`` of ``up . p + h = 0``, repeated on the new plane's
+    inliers until it moves by less than 0.2 degrees and 5 mm (at most ``rounds`` times): a floor seen over a
+    short span of depth leaves its pitch loosely pinned, and one refit from a hypothesis tilted by a few
+    degrees stays tilted. Returns ``up`` (oriented like ``ref``), ``h`` and the inlier mask."""
+    inl = np.abs(cand @ up + h) < band
+    for _ in range(rounds):
+        if inl.sum() < 3:
+            break
+        pts = cand[inl]
+        centre = pts.mean(axis=0)
+        d = pts - centre
+        normal = np.linalg.eigh(d.T @ d)[1][:, 0]             # the direction of least spread (3x3: cheap)
+        new_up = normal if normal @ ref > 0 else -normal
+        new_h = float(-(new_up @ centre))
+        settled = float(new_up @ up) > _SETTLED_COS and abs(new_h - h) < 0.005
+        up, h = new_up, new_h
+        inl = np.abs(cand @ up + h) < band
+        if settled:
+            break
+    return up, h, inl
+
+
+_SETTLED_COS = math.cos(math.radians(0.2))
+
+
+def _hypotheses(pts: np.ndarray, gen: np.random.Generator, iterations: int, ref: np.ndarray, limit: float,
+                max_roll_deg: float, height_range: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """3-point planes of ``pts`` that fit the prior: within ``limit`` radians of ``ref``, the roll and look-up
+    limits, the camera above them by a height in ``height_range``: ``(K, 3)`` unit ``up`` vectors and ``(K,)``
+    offsets ``h`` (``up . p + h = 0``)."""
+    triples = gen.integers(0, len(pts), size=(iterations, 3))
+    a, b, c = pts[triples[:, 0]], pts[triples[:, 1]], pts[triples[:, 2]]
+    normals = _cross(b - a, c - a)
+    norms = np.linalg.norm(normals, axis=1)
+    good = norms > 1e-9
+    normals[good] /= norms[good, None]
+    normals *= np.where(normals @ ref < 0, -1.0, 1.0)[:, None]          # orient towards the reference up
+    good &= (normals @ ref > math.cos(limit)) & (np.abs(normals[:, 0]) < math.sin(math.radians(max_roll_deg)))
+    good &= -normals[:, 2] > math.sin(math.radians(-5.0))     # a walker's camera does not look up at the floor
+    offsets = -np.einsum("ij,ij->i", normals, a)
+    good &= (offsets >= height_range[0]) & (offsets <= height_range[1])  # the camera above its ground
+    return normals[good], offsets[good]
+
+
+class _Search:
+    """The candidate points of one frame's ground search and the prior they are searched with."""
+
+    def __init__(self, cand: np.ndarray, focal_baseline: float, ref: np.ndarray, limit: float, max_roll_deg: float,
+                 iterations: int, rng: int, height_range: tuple[float, float], min_width: float) -> None:
+        self.gen = np.random.default_rng(rng)
+        every = -(-len(cand) // MAX_POINTS)
+        self.cand = cand[::every]                                  # every k-th: at most MAX_POINTS (the cost)
+        self.min_support = max(30 / every, 0.15 * len(self.cand))  # 30 of all the candidates, and 15 %
+        self.band = _band(self.cand[:, 2], focal_baseline)
+        self.ref, self.limit, self.max_roll_deg = ref, limit, max_roll_deg
+        self.iterations, self.height_range, self.min_width = iterations, height_range, min_width
+
+    def surface(self, mask: np.ndarray) -> tuple[_Surface | None, np.ndarray]:
+        """One RANSAC round on the points of ``mask``: the best plane, refitted on all the candidates and
+        checked (None: no hypothesis), and the points it explains (to leave out of the next round)."""
+        cand, band, z = self.cand, self.band, self.cand[:, 2]
+        explained = np.zeros(len(cand), bool)
+        rest = np.nonzero(mask)[0]
+        if len(rest) < 3:                # fewer may still make a plane whose inliers (all of them) are enough
+            return None, explained
+        normals, offsets = _hypotheses(cand[rest], self.gen, self.iterations, self.ref, self.limit,
+                                       self.max_roll_deg, self.height_range)
+        if not len(normals):
+            return None, explained
+        signed = cand @ normals.T + offsets[None, :]                      # (N, K) height above each plane
+        inlier = (np.abs(signed) < band[:, None]).astype(np.float64)
+        support = mask.astype(np.float64) @ inlier
+        # Nothing lies under the ground (but a drop-off): points below a plane count against it, so a table
+        # top or a bed, with the floor under it, loses to the floor. Only those nearer than the plane's own
+        # points: beyond a floor's far edge a drop-off may lie below it.
+        reach = (z @ inlier) / np.maximum(inlier.sum(axis=0), 1)
+        below = ((signed < -3 * band[:, None]) & (z[:, None] < reach[None, :])).sum(axis=0)
+        k = int(np.argmax(support - below))
+        up, h, inl = _refit(cand, band, normals[k], float(offsets[k]), self.ref)
+        explained = inl | (np.abs(cand @ normals[k] + offsets[k]) < band)
+        return self._checked(up, h, inl), explained
+
+    def _checked(self, up: np.ndarray, h: float, inl: np.ndarray) -> _Surface:
+        cand, band = self.cand, self.band
+        n_in = int(inl.sum())
+        reach = float(cand[inl, 2].mean()) if n_in else 0.0
+        n_below = int((((cand @ up + h) < -3 * band) & (cand[:, 2] < reach)).sum())
+        plane = GroundPlane(up, h) if math.isfinite(h) else None
+        reason = ""
+        if n_in < self.min_support:
+            reason = "too small"
+        elif plane is None or not self.height_range[0] <= h <= self.height_range[1]:
+            reason = "height"
+        elif up @ self.ref < math.cos(self.limit) or abs(plane.roll_deg) > self.max_roll_deg \
+                or plane.pitch_deg < -5.0:
+            reason = "tilt"
+        elif n_below > 0.5 * n_in:
+            reason = "points below it"
+        else:
+            lateral = plane.to_ground(cand[inl])[:, 0]
+            lo, hi = np.percentile(lateral, [5, 95])
+            if hi - lo < self.min_width:
+                reason = "too narrow"
+        return _Surface(up, h, n_in, n_below, reason, cand[inl], band[inl])
+
+    def surfaces(self, rounds: int = 3) -> list[_Surface]:
+        """The distinct planes, found one after the other (sequential RANSAC: each round samples the points
+        no plane found so far explains, so a floor holding fewer points than the table above it is found)."""
+        remaining = np.ones(len(self.cand), bool)
+        out: list[_Surface] = []
+        for _ in range(rounds):
+            if remaining.sum() < self.min_support:
+                break
+            s, explained = self.surface(remaining)
+            if s is None:
+                break
+            remaining &= ~explained
+            if not any(float(s.up @ o.up) > math.cos(math.radians(5.0)) and abs(s.height_m - o.height_m) < 0.1
+                       for o in out):                                     # not refitted onto one already kept
+                out.append(s)
+        return out
+
+    def under(self, ground: _Surface) -> np.ndarray:
+        """(N,) bool: the candidates more than three inlier bands under ``ground``'s plane."""
+        return self.cand @ ground.up + ground.height_m < -3 * self.band
+
+
 def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane | None = None,
-               max_tilt_deg: float = 35.0, max_roll_deg: float = 15.0, iterations: int = 64, rng: int = 0
+               max_tilt_deg: float = 35.0, max_roll_deg: float = 15.0, iterations: int = 64, rng: int = 0,
+               height_range: tuple[float, float] = ESTIMATED_HEIGHT_RANGE, min_width: float = 1.0
                ) -> GroundPlane | None:
-    """The ground plane of one frame, or None when the points show none.
+    """The ground plane of one frame, or None when the points show none that fits a carried camera.
 
     Parameters
     ----------
@@ -192,18 +373,30 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
     focal_baseline : float, px * m (``f B`` of the rig: the depth error grows as ``Z**2 / (f B)``)
     prior : GroundPlane, optional
         The expected plane: hypotheses must be within ``max_tilt_deg / 2`` of its ``up`` and only points
-        within 0.5 m of it are used. Without one, ``up`` must be within ``max_tilt_deg`` of straight up
+        within 0.3 m of it are used. Without one, ``up`` must be within ``max_tilt_deg`` of straight up
         ((0, -1, 0)) and only the points below the camera in the lower half of the image are used. Only the
-        ``textured`` points take part when the sample says which they are. The roll
-        must stay below ``max_roll_deg``. A plane scores its supporting points minus the points below it: a
-        table top or a bed, with the floor under it, is not the floor.
-    iterations : int, RANSAC hypotheses; ``rng`` seeds them (deterministic).
+        ``textured`` points take part when the sample says which they are.
+    max_roll_deg : float, the largest sideways tilt of a ground
+    iterations : int, RANSAC hypotheses per round; ``rng`` seeds them (deterministic).
+    height_range : (float, float), metres
+        Camera heights above a ground that a carried or worn camera can have
+        (:data:`ESTIMATED_HEIGHT_RANGE`); hypotheses giving another are not tried.
+    min_width : float, metres
+        The ground's points must span this much across (5th to 95th percentile): a walking corridor fits on
+        it (a desk top beside a person, a stair tread seen end-on do not make a ground).
 
     Returns
     -------
     GroundPlane or None
-        None when fewer than 30 points (or 15 % of the candidates) support the best plane, or the camera
-        height it gives is outside :data:`~stereo_classic.guide.params.HEIGHT_RANGE`.
+        Up to three distinct planes are found one after the other (sequential RANSAC), each refitted by least
+        squares to convergence. A plane may be the ground when it lies below the camera at a height in
+        ``height_range``, within the tilt and roll limits, holds at least 30 points and 15 % of the
+        candidates, is ``min_width`` wide, and fewer points lie below it (nearer than its own) than half its
+        support. Of those the best supported is taken, then, while another plane lies under it (most of its
+        points three inlier bands or more below), that one: the lowest large plane (a desk, a table, a bed or
+        a crib above the floor is not the ground). A round of RANSAC on the points under the current choice
+        looks for such a plane when none of the three is. None when no plane qualifies: the ground is
+        unknown, and the guide says so rather than inventing one.
     """
     xyz, uv = points.xyz, points.uv
     if points.textured is not None:
@@ -217,44 +410,22 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
         ref, limit = np.array([0.0, -1.0, 0.0]), math.radians(max_tilt_deg)
     if len(cand) < 30:
         return None
-    gen = np.random.default_rng(rng)
-    band = _band(cand[:, 2], focal_baseline)
-    step = max(1, len(cand) // 1500)                                       # hypotheses are scored on <= 1500
-    score_pts, score_band = cand[::step], band[::step]
-    triples = gen.integers(0, len(cand), size=(iterations, 3))
-    a, b, c = cand[triples[:, 0]], cand[triples[:, 1]], cand[triples[:, 2]]
-    normals = _cross(b - a, c - a)
-    norms = np.linalg.norm(normals, axis=1)
-    good = norms > 1e-9
-    normals[good] /= norms[good, None]
-    normals *= np.where(normals @ ref < 0, -1.0, 1.0)[:, None]          # orient towards the reference up
-    good &= (normals @ ref > math.cos(limit)) & (np.abs(normals[:, 0]) < math.sin(math.radians(max_roll_deg)))
-    good &= -normals[:, 2] > math.sin(math.radians(-5.0))     # a walker's camera does not look up at the floor
-    if not good.any():
+    search = _Search(cand, focal_baseline, ref, limit, max_roll_deg, iterations, rng, height_range, min_width)
+    surfaces = [s for s in search.surfaces() if not s.reason]
+    if not surfaces:
         return None
-    normals, a = normals[good], a[good]
-    offsets = -np.einsum("ij,ij->i", normals, a)                          # up . p + h = 0 on the plane
-    signed = score_pts @ normals.T + offsets[None, :]                     # (M, K) height above each plane
-    support = (np.abs(signed) < score_band[:, None]).sum(axis=0)
-    # Nothing lies under the ground (but a drop-off): points below a plane count against it, so a table top
-    # or a bed, with the floor under it, loses to the floor.
-    # Only those nearer than the plane's own points: beyond a floor's far edge a drop-off may lie below it.
-    inlier = np.abs(signed) < score_band[:, None]
-    reach = (inlier * score_pts[:, 2:3]).sum(axis=0) / np.maximum(support, 1)
-    below = ((signed < -3 * score_band[:, None]) & (score_pts[:, 2:3] < reach[None, :])).sum(axis=0)
-    best = int(np.argmax(support - below))
-    inl = cand[np.abs(cand @ normals[best] + offsets[best]) < band]
-    if len(inl) < max(30, 0.15 * len(cand)):
-        return None
-    centre = inl.mean(axis=0)
-    _, _, vt = np.linalg.svd(inl - centre, full_matrices=False)
-    up = vt[2] if vt[2] @ ref > 0 else -vt[2]
-    if up @ ref < math.cos(limit):
-        up = normals[best]
-    height = float(-(up @ centre))
-    if not HEIGHT_RANGE[0] <= height <= HEIGHT_RANGE[1]:
-        return None
-    return GroundPlane(up, height, "fitted", len(inl))
+    ground = max(surfaces, key=lambda s: s.score)
+    for _ in range(4):                                     # the lowest large surface: step down while one is under
+        lower = [s for s in surfaces if s is not ground and s.under(ground)]
+        if not lower:
+            found, _ = search.surface(search.under(ground))
+            if found is None or found.reason or not found.under(ground):
+                break
+            surfaces.append(found)
+            lower = [found]
+        ground = max(lower, key=lambda s: s.score)
+    support = int((np.abs(cand @ ground.up + ground.height_m) < _band(cand[:, 2], focal_baseline)).sum())
+    return GroundPlane(ground.up, ground.height_m, "fitted", support)
 
 
 class GroundTracker:
@@ -298,9 +469,10 @@ class GroundTracker:
             self.plane = self._given(None)
             return self.plane
         prior = self.plane
-        fit = fit_ground(points, focal_baseline, prior=prior, rng=self._frame)
+        width = self.params.corridor_width                  # the walking corridor must fit on the ground
+        fit = fit_ground(points, focal_baseline, prior=prior, rng=self._frame, min_width=width)
         if fit is None and prior is not None and self.plane is not None:
-            fit = fit_ground(points, focal_baseline, prior=None, rng=self._frame)   # the camera moved a lot
+            fit = fit_ground(points, focal_baseline, prior=None, rng=self._frame, min_width=width)   # moved a lot
         fit = self._given(fit)
         if fit is None:
             if self.plane is not None:

@@ -23,7 +23,7 @@ import numbers
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["DIRECTIONS", "HEIGHT_RANGE", "UNITS", "GuideInputError", "GuideParams"]
+__all__ = ["DIRECTIONS", "ESTIMATED_HEIGHT_RANGE", "HEIGHT_RANGE", "UNITS", "GuideInputError", "GuideParams"]
 
 #: Values of ``GuideParams.units``.
 UNITS: tuple[str, ...] = ("metres", "feet")
@@ -31,6 +31,10 @@ UNITS: tuple[str, ...] = ("metres", "feet")
 DIRECTIONS: tuple[str, ...] = ("clock", "leftright")
 #: Plausible camera heights above the ground, metres (a given or estimated height outside is refused).
 HEIGHT_RANGE: tuple[float, float] = (0.1, 5.0)
+#: Camera heights above the ground that an *estimated* ground may give, metres: a camera held, worn or mounted
+#: on a walking person (hand, chest, head: up to the head of a tall person) or held low near the floor. A plane
+#: that gives another height is not taken for the ground (a higher mounting is given with ``camera_height``).
+ESTIMATED_HEIGHT_RANGE: tuple[float, float] = (0.3, 2.0)
 
 
 class GuideInputError(ValueError):

@@ -144,8 +144,13 @@ def _oakd(shared_data, name, detector=None):
 
 
 def test_real_selfie_person_ahead(shared_data, yolox_nano):
-    """The OAK-D selfie: the person facing the camera is said first, at 12 o'clock, as a danger."""
+    """The OAK-D selfie: the person facing the camera is said at 12 o'clock as a danger; only the frame's first
+    danger interrupts. No floor is in view (the desk is too narrow to walk on): the ground is unknown and said so,
+    and the objects are measured in the camera frame (the chair behind the person is as near, 0.66 m against
+    0.67 m, so which of the two comes first is not a property of the guide)."""
     frame = _oakd(shared_data, "selfie", str(yolox_nano))
+    assert frame.ground is None and any(n.startswith("ground unknown") for n in frame.notes)
     person = [e for e in frame.events if e.label == "person"]
     assert len(person) == 1 and person[0].clock in (11, 12, 1) and 0.3 < person[0].distance_m < 1.2
-    assert person[0].priority == "danger" and person[0].interrupt
+    assert person[0].priority == "danger"
+    assert [e.interrupt for e in frame.events].count(True) == 1 and frame.events[0].interrupt

@@ -101,3 +101,72 @@ def test_sample_points_marks_texture():
     assert sample.textured.dtype == bool and sample.textured.shape == (len(sample.xyz),)
     assert not sample.textured[sample.uv[:, 0] < 15].any() and sample.textured[sample.uv[:, 0] > 24].all()
     assert sample_points(np.full((30, 40), 8.0, np.float32), rig).textured is None
+
+
+def _rendered(boxes, pitch):
+    """Textured samples of a rendered frame (tests/helpers/walk_scenes.py, camera 1.2 m up), from its exact
+    depth: the geometry, not the matcher, is what these tests are about."""
+    from stereo_classic.guide.ground import sample_points
+    from tests.helpers import walk_scenes as ws
+
+    left, _, depth, rig = ws.render(ws.floor() + boxes, supersample=1, cam_height=1.2, pitch_deg=pitch)
+    disparity = (rig.focal_px * rig.baseline_m / depth).astype(np.float32)
+    return sample_points(disparity, rig, stride=2, image=left), rig.focal_px * rig.baseline_m
+
+
+@pytest.mark.parametrize("top, x0, x1, far, pitch", [
+    (0.6, -1.0, 1.0, 1.4, 15.0),      # a low table filling the near view, the floor beside and beyond it
+    (0.45, -1.6, 0.4, 1.8, 20.0),     # a bed or a landing, wider and deeper, seen steeper
+])
+def test_floor_below_the_largest_plane_is_the_ground(top, x0, x1, far, pitch):
+    """The naive largest plane is a table top (or a bed, a landing); the floor is lower and must be the ground."""
+    from tests.helpers import walk_scenes as ws
+
+    sample, fb = _rendered([ws.Box(x0, x1, top - 0.04, top, 0.2, far, seed=9)], pitch)
+    floor, table = GroundPlane.from_mounting(1.2, pitch), GroundPlane.from_mounting(1.2 - top, pitch)
+    pts, uv = sample.xyz[sample.textured], sample.uv[sample.textured]
+    pts = pts[(uv[:, 1] > np.median(uv[:, 1])) & (pts[:, 2] < 4.0)]       # what fit_ground looks at
+    on_table, on_floor = (np.abs(table.heights(pts)) < 0.02).sum(), (np.abs(floor.heights(pts)) < 0.02).sum()
+    assert on_table > 2 * on_floor > 0                                    # the premise: the table is the largest
+    for seed in range(3):
+        fit = fit_ground(sample, fb, rng=seed)
+        assert fit is not None
+        assert fit.height_m == pytest.approx(1.2, abs=0.03) and fit.pitch_deg == pytest.approx(pitch, abs=1.0)
+
+
+def test_a_desk_alone_is_not_the_ground():
+    """Only a desk top in view (no floor within the lower half of the image and 4 m): too narrow for the walking
+    corridor, so no ground rather than a desk 0.45 m under the camera."""
+    from tests.helpers import walk_scenes as ws
+
+    sample, fb = _rendered([ws.Box(-1.0, 1.0, 0.71, 0.75, 0.2, 1.5, seed=9)], 20.0)
+    desk = GroundPlane.from_mounting(0.45, 20.0)
+    assert (np.abs(desk.heights(sample.xyz[sample.textured])) < 0.02).mean() > 0.3    # the desk is in view
+    assert fit_ground(sample, fb) is None
+    assert fit_ground(sample, fb, min_width=0.5).height_m == pytest.approx(0.45, abs=0.03)   # it is a plane
+    assert GroundTracker(GuideParams()).update(sample, fb) is None                  # the guide: corridor 1.0 m
+    narrow = GroundTracker(GuideParams(corridor_width=0.5)).update(sample, fb)       # a 0.5 m corridor fits on it
+    assert narrow.height_m == pytest.approx(0.45, abs=0.03)
+
+
+def test_estimated_height_must_be_plausible():
+    """A floor 2.6 m under the camera (a balcony, or a plane through far clutter) is not estimated as the
+    ground (ESTIMATED_HEIGHT_RANGE); a given `camera_height` up to 5 m is still taken."""
+    sample, _ = _floor_sample(2.6, 25.0)
+    assert fit_ground(sample, 36.0) is None
+    assert fit_ground(sample, 36.0, height_range=(0.3, 3.0)).height_m == pytest.approx(2.6, abs=0.03)
+    assert GroundTracker(GuideParams(camera_height=2.6)).update(sample, 36.0) is None
+    given = GroundTracker(GuideParams(camera_height=2.6, camera_pitch=25.0)).update(sample, 36.0)
+    assert given.height_m == 2.6
+
+
+@pytest.mark.parametrize("h, w, stride, channels", [(30, 40, 2, 1), (97, 131, 5, 3), (24, 24, 4, 1)])
+def test_texture_grid_equals_the_reference(h, w, stride, channels):
+    from stereo_classic.guide.ground import _texture, _texture_grid
+
+    rng = np.random.default_rng(h)
+    image = rng.integers(0, 256, (h, w) if channels == 1 else (h, w, 3)).astype(np.uint8)
+    off = stride // 2
+    vs, us = np.mgrid[off:h:stride, off:w:stride]
+    grid = _texture_grid(image, off, stride, vs.shape)
+    np.testing.assert_array_equal(grid.ravel(), _texture(image, us.ravel().astype(float), vs.ravel().astype(float)))
