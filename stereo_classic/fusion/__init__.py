@@ -1,7 +1,7 @@
 """Fusion of detections and disparity: one distance and one 3D position per detected object.
 
 Data flow: ``params`` (:class:`FusionParams`, the settings) -> ``localize`` (boxes + disparity + rig ->
-depths in each box -> ``ransac`` consistent set -> 3D centroid) -> ``objects`` (:class:`LocalizedObjects`,
+depths in each box -> ``ransac`` consistent set -> its median 3D point) -> ``objects`` (:class:`LocalizedObjects`,
 the result). ``reference`` judges the result against sparse LiDAR depth.
 
 >>> from types import SimpleNamespace
@@ -11,7 +11,7 @@ the result). ``reference`` judges the result against sparse LiDAR depth.
 >>> objs = localize([[24, 6, 40, 25]], np.full((30, 40), 10.0), rig, FusionParams(box_shrink=0.1))
 >>> print(objs.format_table())
 label   confidence  distance  x (m)  y (m)  z (m)  direction
-object        1.00    5.00 m  +0.12  +0.00   5.00  ahead
+object        1.00    5.00 m  +0.11  +0.00   5.00  ahead
 """
 
 from __future__ import annotations

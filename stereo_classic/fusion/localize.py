@@ -2,8 +2,8 @@
 
 The paper's section III.E: inside a detection box the depth values of the object are continuous while
 the background behind it is not. A 1-D RANSAC over the disparities inside the (shrunk) box finds the
-largest set of mutually consistent values; the centroid of the 3D points of that set is the object's
-position, its Z the object's distance.
+largest set of mutually consistent values; the median point of that set (the median of each coordinate of its
+3D points) is the object's position, its Z the object's distance.
 
 Design decisions (see :class:`~stereo_classic.fusion.params.FusionParams` for the parameters):
 
@@ -134,7 +134,11 @@ def localize(
                 status.append("no_consensus")
                 continue
             x, y, z = _points(depths, mask, pinhole)
-            centroid = np.array([x.mean(), y.mean(), z.mean()])
+            # the median point of the consistent set, not its mean: the set's band admits values up to
+            # tolerance_px (and its growth) on either side, and in depth (Z ~ 1 / d) those behind weigh more
+            # than those in front, so the mean sits behind the surface (KITTI's 21 m car: +3.5 % against the
+            # median of the LiDAR points in its labelled box, the median +2.5 %)
+            centroid = np.array([np.median(x), np.median(y), np.median(z)])
         else:
             med = float(np.median(depths.d))
             mask = np.abs(depths.d - med) <= params.tolerance_px

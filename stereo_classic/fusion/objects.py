@@ -66,7 +66,7 @@ class LocalizedObjects:
     xyxy : (N, 4) float32
         Box in left-image pixels (x0, y0, x1, y1).
     distance_m : (N,) float64
-        Distance along the optical axis (Z of the centroid), metres; NaN unless status is "ok".
+        Distance along the optical axis (Z of the consistent set's median point), metres; NaN unless status is "ok".
     xyz : (N, 3) float64
         Centroid X, Y, Z in metres in the left rectified camera frame (X right, Y down, Z forward).
     inliers : (N,) int64
@@ -226,7 +226,7 @@ class LocalizedObjects:
         """A table for people: a header line, then one aligned row per object ("" when there are none).
 
         Columns: ``label``, ``confidence`` (detector score), ``distance`` (metres along the optical axis),
-        ``x (m)``, ``y (m)``, ``z (m)`` (centroid in the left rectified camera frame: x right, y down, z
+        ``x (m)``, ``y (m)``, ``z (m)`` (median point in the left rectified camera frame: x right, y down, z
         forward) and ``direction`` ("ahead", "slightly left", ...). An object without a distance shows ``?``
         and its status in the direction column. ``header=False`` leaves the header line out.
 

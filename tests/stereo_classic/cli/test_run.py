@@ -121,7 +121,11 @@ def test_kitti_pair_from_files(tmp_path, shared_data, yolox_nano, capsys):
     assert capsys.readouterr().out.count("car ") == 4
     record = _check_outputs(out, "left", (375, 1242))
     cars = [o for o in record["objects"] if o["label"] == "car"]
-    assert len(cars) == 4 and all(c["status"] == "ok" and 2.0 < c["distance_m"] < 30.0 for c in cars)
+    assert len(cars) == 4
+    # the car cut by the right edge is nearer than 128 disparities reach: marked, with no distance; the others measured
+    edge = [c for c in cars if c["box_xyxy"][2] >= 1241.0]
+    assert len(edge) == 1 and edge[0]["status"] == "beyond_range" and edge[0]["distance_m"] is None
+    assert all(c["status"] == "ok" and 2.0 < c["distance_m"] < 30.0 for c in cars if c not in edge)
 
 
 # --- determinism, Ctrl-C, --resume ----------------------------------------------------------------------

@@ -104,6 +104,20 @@ def test_tie_goes_to_the_nearer_set():
     assert objs.distance_m[0] == pytest.approx(500 * 0.1 / 25.0)
 
 
+def test_distance_is_the_median_depth_of_the_set_not_its_mean():
+    """A surface at d = 20 px with a tail of background values within the band behind it: depth goes as 1 / d, so
+    the mean depth of the set sits behind the surface; the distance is its median depth."""
+    rig = make_rig(40, 20, focal_px=500.0, baseline_m=0.2)  # f B = 100 px m: d = 20 px is 5 m
+    rng = np.random.default_rng(3)
+    d = np.full((20, 40), 20.0, np.float32) + rng.normal(0, 0.05, (20, 40)).astype(np.float32)
+    d[:, :12] = 19.3 + rng.normal(0, 0.05, (20, 12)).astype(np.float32)  # within tolerance_px, 0.18 m behind
+    objs = localize(np.array([[0, 0, 40, 20]]), d, rig, box_shrink=0.0, centre_sigma=0, grow_density=0.0)
+    z = 100.0 / d.astype(np.float64)
+    assert objs.inliers[0] == d.size  # the whole box is one set
+    assert objs.distance_m[0] == pytest.approx(float(np.median(z)), rel=1e-6)
+    assert objs.distance_m[0] < float(z.mean()) - 0.02
+
+
 def test_strict_largest_set_with_near_support_one():
     rig = make_rig(40, 20, focal_px=500.0, baseline_m=0.1)
     d = np.full((20, 40), 10.0, np.float32)
@@ -118,14 +132,14 @@ def test_strict_largest_set_with_near_support_one():
     assert objs.distance_m[0] == pytest.approx(5.0) and objs.occluded[0] and objs.status == ("ok",)
 
 
-def test_xyz_is_centroid_of_inlier_points_from_rig_points():
+def test_xyz_is_the_median_point_of_the_inlier_points_from_rig_points():
     rng = np.random.default_rng(5)
     _, _, gt, rig = planted_scene(z_box=3.0, z_wall=8.0, box=(20, 30, 90, 100))
     d = _noisy(gt, rng, outliers=0.0, holes=0.0)
     objs = localize(np.array([[20, 30, 90, 100]]), d, rig, tolerance_px=100.0, box_shrink=0.2,
                     depth_range=(0.1, 100.0))
     pts = rig.points(d)[37:93, 27:83].reshape(-1, 3)  # shrunk box: 20 + 0.1 * 70 = 27, ...
-    np.testing.assert_allclose(objs.xyz[0], pts.mean(axis=0), rtol=1e-4)
+    np.testing.assert_allclose(objs.xyz[0], np.median(pts, axis=0), rtol=1e-4)
     assert objs.xyz[0, 0] < 0 and objs.xyz[0, 1] < 0  # left of and above the image centre
     assert objs.inliers[0] == pts.shape[0] and objs.valid_pixels[0] == pts.shape[0]
 
@@ -330,7 +344,7 @@ def test_grow_density_merges_a_slanted_surface():
 
 
 def test_xyz_matches_calib_rectified_rig_points_with_doffs():
-    """The centroid uses the same geometry as calib.RectifiedRig.points (doffs and principal point included)."""
+    """The position uses the same geometry as calib.RectifiedRig.points (doffs and principal point included)."""
     from calib import RectifiedRig
 
     rig = RectifiedRig(focal_px=900.0, cx_left=50.0, cx_right=81.0, cy=35.0, baseline_m=0.2, image_size=(120, 80))
@@ -339,7 +353,7 @@ def test_xyz_matches_calib_rectified_rig_points_with_doffs():
     objs = localize(np.array([[10, 10, 110, 70]]), d, rig, box_shrink=0.0, tolerance_px=50.0, centre_sigma=0,
                     depth_range=(0.1, 100.0))
     pts = rig.points(d)[10:70, 10:110].reshape(-1, 3)
-    np.testing.assert_allclose(objs.xyz[0], pts.mean(axis=0), rtol=1e-5)
+    np.testing.assert_allclose(objs.xyz[0], np.median(pts, axis=0), rtol=1e-5)
     assert objs.distance_m[0] == pytest.approx(900 * 0.2 / (40.0 + 31.0), rel=1e-3)
 
 
