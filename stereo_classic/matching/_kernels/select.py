@@ -25,7 +25,7 @@ def select_row(y, settings, dmin, sums, row_min, k_index, right_sums, right_k, b
                out):  # pragma: no cover - numba
     """Resolve row ``y`` from its complete sums ``sums[x * D + k]`` (int16), their minima ``row_min[x]`` and the
     right view's winners ``right_k`` (``right_sums`` / ``right_k`` per right pixel q = W - 1 - dmin - x_right:
-    the lowest sum landing there and its disparity index, ties to the smallest, made by the pass that summed).
+    the lowest sum landing there and its disparity index, ties to the smallest; made by ``right_view_row``).
 
     Winner-takes-all (first index of the minimum; disparities whose match is outside the right image always
     sum higher than the others), uniqueness, parabola subpixel, then the left-right check of the row ("full":
