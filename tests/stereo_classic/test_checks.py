@@ -144,3 +144,25 @@ def test_the_same_image_twice_is_not_a_pair(near_scene):
         r = loc(left, left.copy())
     assert r.objects.status == ("pair_mismatch",)
     assert [w.code for w in r.warnings] == ["pair_mismatch"] and "same image" in r.warnings[0].message
+
+
+@pytest.mark.parametrize("order", ["as given", "swapped"])
+def test_the_pair_looks_at_once_equal_the_looks_one_after_the_other(near_scene, order):
+    """With two threads the pair check's two half-size looks run at the same time, one thread each; what they
+    see, and so the check's answer, is what one thread sees running them one after the other."""
+    left, right, _ = near_scene
+    if order == "swapped":
+        left, right = right, left
+    both = FrameChecker(SGMParams(num_disparities=96, threads=2))
+    one = FrameChecker(SGMParams(num_disparities=96, threads=1))
+    try:
+        at_once, in_turn = both._pair_looks(left, right), one._pair_looks(left, right)
+        assert both._pool is not None and one._pool is None  # the two ways really ran
+        for a, b in zip(at_once, in_turn):
+            np.testing.assert_array_equal(a.disparity, b.disparity)
+        blank = _blank(left)
+        assert both.check_pair(left, right, blank) == one.check_pair(left, right, blank)
+    finally:
+        both.close()
+        one.close()
+    assert both._pool is None
