@@ -44,7 +44,6 @@ __all__ = [
     "SAD",
     "CostImages",
     "CostSettings",
-    "census_transform",
     "census_quarters",
     "census_bits",
     "row_cost",
@@ -77,11 +76,12 @@ class CostImages(NamedTuple):
     ----------
     left : (H, W) uint8
         The left grey image (adaptive P2 reads it; its shape is the image size).
-    left_code, right_code : uint16 or uint64
-        Census codes: (H, W, 4) uint16 (four 16-bit quarters, quarter 0 = bits 0-15) for the fused
-        passes, (H, W) uint64 for ``cost_volume_kernel``; (1, 1[, 4]) placeholders for SAD.
+    left_code, right_code : (H, W, 4) uint16
+        Census codes as four 16-bit quarters (quarter 0 = bits 0-15, ``census_quarters``); (1, 1, 1)
+        placeholders for SAD.
     left_sobel, left_intensity, right_sobel, right_intensity : (H, W) int16
-        The SAD channels of ``sad_prefilter``; (1, 1) placeholders for census.
+        The SAD channels of ``sad_prefilter``; (1, 1) placeholders for census (and the intensities for
+        census+grad, which has no intensity term).
     """
 
     left: np.ndarray
@@ -130,43 +130,9 @@ def census_bits(census_window: tuple[int, int]) -> int:
 
 
 @njit(cache=True, nogil=True)
-def _census_kernel(padded, hw, hh, out):  # pragma: no cover - numba
-    H, W = out.shape
-    for y in range(H):
-        row = out[y]
-        row[:] = 0
-        centre = padded[y + hh, hw:hw + W]
-        for dy in range(-hh, hh + 1):
-            for dx in range(-hw, hw + 1):
-                if dy == 0 and dx == 0:
-                    continue
-                nb = padded[y + hh + dy, hw + dx:hw + dx + W]
-                for x in range(W):
-                    row[x] = (row[x] << np.uint64(1)) | np.uint64(nb[x] < centre[x])
-
-
-def census_transform(image: np.ndarray, census_window: tuple[int, int]) -> np.ndarray:
-    """Census codes: bit set where the neighbour is darker than the centre, borders replicated.
-
-    Parameters
-    ----------
-    image : (H, W) uint8
-    census_window : (width, height), both odd, ``width * height - 1 <= 64``
-
-    Returns
-    -------
-    (H, W) uint64 codes.
-    """
-    w, h = census_window
-    padded = np.pad(image, ((h // 2, h // 2), (w // 2, w // 2)), mode="edge")
-    out = np.empty(image.shape, np.uint64)
-    _census_kernel(padded, w // 2, h // 2, out)
-    return out
-
-
-@njit(cache=True, nogil=True)
 def _census_quarters_kernel(padded, hw, hh, out):  # pragma: no cover - numba
-    """out[y, x, q]: the 16-bit quarter q of the census code, bit for bit census_transform's."""
+    """out[y, x, q]: the 16-bit quarter q of the census code (neighbour n of the window, in row order, is bit
+    nbits - 1 - n of the 64-bit code)."""
     H, W = out.shape[0], out.shape[1]
     nbits = (2 * hw + 1) * (2 * hh + 1) - 1
     acc = np.zeros((4, W), np.uint16)
@@ -190,9 +156,9 @@ def _census_quarters_kernel(padded, hw, hh, out):  # pragma: no cover - numba
 
 
 def census_quarters(image: np.ndarray, census_window: tuple[int, int]) -> np.ndarray:
-    """Census codes as four 16-bit quarters: ``(H, W, 4) uint16``, equal to
-    ``census_transform(image, census_window).view(np.uint16).reshape(H, W, 4)`` (little-endian quarters,
-    quarter 0 = bits 0-15), computed in 16-bit lanes (four times as many per vector as the 64-bit codes)."""
+    """Census codes as four 16-bit quarters: ``(H, W, 4) uint16``, the 64-bit code (bit set where the neighbour is
+    darker than the centre, borders replicated; ``reference.census_reference``) viewed as little-endian quarters,
+    quarter 0 = bits 0-15, computed in 16-bit lanes (four times as many per vector as 64-bit codes)."""
     w, h = census_window
     padded = np.pad(image, ((h // 2, h // 2), (w // 2, w // 2)), mode="edge")
     out = np.empty(image.shape + (4,), np.uint16)

@@ -12,7 +12,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["add16", "sub16", "min16", "max16", "absdiff16", "and16", "shr16", "lshr16", "mulshr16", "popcnt16", "popxor16",
+__all__ = ["add16", "sub16", "min16", "max16", "absdiff16", "and16", "shr16", "lshr16", "mulshr16", "popxor16",
            "pick16", "eq16"]
 
 
@@ -156,21 +156,6 @@ def eq16(typingctx, a, b):
         return builder.icmp_signed("==", args[0], args[1])
 
     return types.boolean(types.int16, types.int16), codegen
-
-
-@intrinsic
-def popcnt16(typingctx, x):
-    """Number of set bits of a uint64, as int16 (``llvm.ctpop.i64``, vectorises to vpopcntq)."""
-    if x != types.uint64:
-        raise TypeError(f"popcnt16 needs a uint64 argument, got {x}")
-
-    def codegen(context, builder, signature, args):
-        i64 = ir.IntType(64)
-        fn = builder.module.declare_intrinsic("llvm.ctpop", [i64])
-        count = builder.call(fn, [args[0]])
-        return builder.trunc(count, ir.IntType(16))
-
-    return types.int16(types.uint64), codegen
 
 
 @intrinsic

@@ -172,11 +172,10 @@ def test_three_paths_with_adaptive_p2_match_reference(cost):
 
 @pytest.mark.parametrize("census_window", [(9, 7), (7, 7), (3, 3), (5, 3)])
 def test_census_quarters_are_the_census_codes_bit_for_bit(census_window):
-    from stereo_classic.matching._kernels.cost import census_quarters, census_transform
+    from stereo_classic.matching._kernels.cost import census_quarters
 
     img = np.random.default_rng(7).integers(0, 256, (13, 37), dtype=np.uint8)
-    codes = census_transform(img, census_window)
-    np.testing.assert_array_equal(codes, ref.census_reference(img, census_window))
+    codes = ref.census_reference(img, census_window)
     quarters = census_quarters(img, census_window)
     assert quarters.dtype == np.uint16 and quarters.shape == img.shape + (4,)
     np.testing.assert_array_equal(quarters, codes.view(np.uint16).reshape(13, 37, 4))
