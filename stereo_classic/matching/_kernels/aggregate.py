@@ -52,6 +52,7 @@ from stereo_classic.matching._kernels.cost import (
     sad_colsum_advance,
     sad_colsum_init,
     sad_hsum_init,
+    valid_range,
 )
 from stereo_classic.matching._kernels.intrinsics import (
     add16,
@@ -180,7 +181,8 @@ class ThreadBuffers(NamedTuple):
     rrev : (4 * (W + D - 1),) uint16
         Census code quarters of the current right row, reversed ((1,) for SAD).
     srev, irev : (2 * (W + 2h + D - 1),) int16
-        SAD channels of a right row, reversed ((1,) for census).
+        Gradient and intensity channels of two right rows, reversed (as ``cost.RowCostBuffers``: (1,) for census;
+        irev (1,) but for SAD).
     right_sums, right_k : (W + D - 1,) int16
         Right view: best sum and its disparity index per right pixel.
     best : (W,) int64
@@ -315,8 +317,9 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
 
     ``plan.accumulate``: add to the sum volume instead of storing (the complete sums go back to it
     only when ``plan.keep_sums``, else to the row buffer ``bufs.sums``); ``plan.select`` (backward pass
-    only): keep each pixel's minimum and the right view's running winner, and resolve the row at its end
-    (``select.select_row``); ``plan.init_cost``: (SAD) build the column sums from scratch at the first row.
+    only): keep each pixel's minimum, and at the row's end find the right view's winners and resolve the row
+    (``select.right_view_row``, ``select.select_row``); ``plan.init_cost``: (SAD) build the column sums from
+    scratch at the first row.
 
     Path vectors: slots of E = D + 2 int16 (sentinels at both ends), minima in MH/MV/MA/MB. In pass
     coordinates (i = position along the row in processing order, v = rows processed since the
@@ -429,12 +432,7 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
             # --- cost of pixel (y, x) (census written out here: a call per pixel costs as much). For
             # 8 paths and a pixel whose whole range is valid, the census cost is computed inside the
             # path loop below instead ("fuse": no cost vector stored and reloaded).
-            k_lo = x - dmin - W + 1
-            if k_lo < 0:
-                k_lo = 0
-            k_hi = x - dmin
-            if k_hi > D - 1:
-                k_hi = D - 1
+            k_lo, k_hi = valid_range(x, W, dmin, D)
             fuse = kind == 0 and four and k_lo == 0 and k_hi == D - 1
             a0 = a1 = a2 = a3 = np.uint16(0)
             if kind != 1:

@@ -142,19 +142,11 @@ def _thread_buffers(H: int, W: int, D: int, kind: int, h: int) -> ThreadBuffers:
         P[:, E - 1] = _SENTINEL
         paths.append(P.reshape(-1))
         minima.append(np.zeros(n, np.int16))
-    if kind != CENSUS:  # SAD, or the gradient term of census+grad
-        colsum = np.zeros((W + 2 * h) * D, np.int16)
-        srev = np.zeros(2 * (W + 2 * h + D - 1), np.int16)  # two reversed rows: entering and leaving the window
-        irev = np.zeros(2 * (W + 2 * h + D - 1), np.int16)
-    else:
-        colsum = np.zeros(1, np.int16)
-        srev = np.zeros(1, np.int16)
-        irev = np.zeros(1, np.int16)
-    rrev = np.zeros(4 * (W + D - 1), np.uint16) if kind != SAD else np.zeros(1, np.uint16)
+    rc = _row_cost_buffers(W, D, kind, h)  # the cost state (its int16 hsum aside: this kernel sums in int32)
     return ThreadBuffers(
         *paths, *minima, cost=np.zeros(D, np.int16), sums=np.zeros(W * D, np.int16),
-        row_min=np.zeros(W, np.int16), k_index=np.arange(D, dtype=np.int16), colsum=colsum,
-        hsum=np.zeros(D, np.int32), rrev=rrev, srev=srev, irev=irev,
+        row_min=np.zeros(W, np.int16), k_index=np.arange(D, dtype=np.int16), colsum=rc.colsum,
+        hsum=np.zeros(D, np.int32), rrev=rc.rrev, srev=rc.srev, irev=rc.irev,
         right_sums=np.empty(W + D - 1, np.int16), right_k=np.empty(W + D - 1, np.int16),
         best=np.empty(W, np.int64), counts=np.zeros(2, np.int64),
         claim_cost=np.empty(W, np.int16), claim_k=np.empty(W, np.int16))
@@ -248,12 +240,9 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     total += 2 * (H + workers) * W * D  # sum volume with one scratch row per worker
     slots = 2 + (W + H + 1) + (W + 2 * H + 1) + (W + 2)
     per_thread = 2 * E * slots + 2 * slots  # path vectors + minima
-    per_thread += 2 * D + 2 * W * D + 2 * W + 2 * D + 4 * D + 2 * 2 * (W + D) + 8 * W  # C, row sums and minima,
-    # k index, hsum, right view, best
-    if kind != CENSUS:
-        per_thread += 2 * (W + 2 * h) * D + 2 * 2 * 2 * (W + 2 * h + D)
-    if kind != SAD:
-        per_thread += 8 * (W + D)
+    per_thread += 2 * D + 2 * W * D + 2 * W + 2 * D + 2 * 2 * (W + D) + 8 * W  # C, row sums and minima,
+    # k index, right view, best
+    per_thread += _row_cost_bytes(W, D, kind, h) + 2 * D  # the cost state, its hsum in int32
     return total + workers * per_thread
 
 
@@ -320,8 +309,9 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
             bufs = [_thread_buffers(H, W, D, kind, h) for _ in range(n_workers)]
         if workspace is not None:
             workspace.keep(S, bufs, key)
-    for b in bufs:
-        (b[1] if one_sweep else b).counts[:] = 0
+    counters = [(b[1] if one_sweep else b).counts for b in bufs]  # rejected by uniqueness, by the LR check
+    for c in counters:
+        c[:] = 0
     disp = np.empty((H, W), np.float32)
     dispR = np.empty((H, W), np.float32)
     lr_thr = -1.0 if lr_check is None else float(lr_check)
@@ -382,9 +372,8 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     t2 = time.perf_counter()
     timings["aggregate"] = (t2 - t1) * 1e3
     timings["select"] = 0.0  # fused into the second phase of "aggregate"
-    counts = [(b[1] if one_sweep else b).counts for b in bufs]
-    timings["n_failed_uniqueness"] = int(sum(int(c[0]) for c in counts))
-    timings["n_failed_lr"] = int(sum(int(c[1]) for c in counts))
+    timings["n_failed_uniqueness"] = int(sum(int(c[0]) for c in counters))
+    timings["n_failed_lr"] = int(sum(int(c[1]) for c in counters))
     return disp, (dispR if right_view else None), S[:H], timings
 
 
@@ -492,7 +481,8 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
                 p2: int = 80) -> np.ndarray:
     """(H, W, D) int16 matching cost, entry [y, x, k] for disparity min_disparity + k.
 
-    Exactly the costs the passes use (``cost.row_cost``, row by row) (SAD scaled by ``cost_scale``, which depends on p2);
+    Exactly the costs the passes use (``cost.row_cost``, row by row; SAD scaled by ``cost_scale``, which depends on
+    p2);
     disparities whose match falls outside the right image hold the invalid cost
     ``cmax + 2 * p2_scaled + 1``. Not used on the fast path (it allocates the full volume).
     """

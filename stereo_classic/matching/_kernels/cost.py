@@ -47,6 +47,7 @@ __all__ = [
     "census_quarters",
     "census_bits",
     "row_cost",
+    "valid_range",
     "RowCostBuffers",
     "sad_prefilter",
     "cost_volume_kernel",
@@ -227,6 +228,13 @@ class RowCostBuffers(NamedTuple):
     irev: np.ndarray
 
 
+@njit(cache=True, nogil=True, inline="always")
+def valid_range(x, W, dmin, D):  # pragma: no cover - numba
+    """(k_lo, k_hi), inclusive: the disparity indices of column ``x`` whose match ``x - dmin - k`` lies inside the
+    right image (none when k_lo > k_hi)."""
+    return max(0, x - dmin - W + 1), min(D - 1, x - dmin)
+
+
 @njit(cache=True, nogil=True)
 def sad_reverse_row(rsob, rint, y, srev, irev, dmin, h, intensity):  # pragma: no cover - numba
     """srev[j] = rsob[y, clamp(W - 1 + h - dmin - j)], same for the intensity row (when ``intensity``)."""
@@ -380,12 +388,7 @@ def row_cost(images, cost, y, first, bufs, crow):  # pragma: no cover - numba
         cb = x * D
         if grad:  # the window sum of the pixel: hsum over the column sums x - h .. x + h
             if x == 0:
-                for k in range(D):
-                    hsum[k] = 0
-                for xp in range(-h, h + 1):
-                    base = (xp + h) * D
-                    for k in range(D):
-                        hsum[k] = add16(hsum[k], colsum[_U(base + k)])
+                sad_hsum_init(hsum, colsum, 0, h, D)
             else:
                 bin_ = (x + 2 * h) * D
                 bout = (x - 1) * D
@@ -414,8 +417,7 @@ def row_cost(images, cost, y, first, bufs, crow):  # pragma: no cover - numba
                 crow[_U(cb + k)] = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
                                          add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
     for x in range(W):  # disparities whose match is outside the right image: k outside [k_lo, k_hi]
-        k_lo = x - dmin - W + 1
-        k_hi = x - dmin
+        k_lo, k_hi = valid_range(x, W, dmin, D)
         if k_lo > 0 or k_hi < D - 1:
             cb = x * D
             for k in range(D):

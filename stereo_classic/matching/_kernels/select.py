@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from stereo_classic.matching._kernels.cost import NoAliasCompiler
+from stereo_classic.matching._kernels.cost import NoAliasCompiler, valid_range
 from stereo_classic.matching._kernels.intrinsics import eq16, min16, pick16
 
 __all__ = ["select_row", "right_view_row"]
@@ -57,12 +57,7 @@ def select_row(y, settings, dmin, sums, row_min, k_index, right_sums, right_k, b
             ccost[q] = big
             ck[q] = minus1
     for x in range(W):
-        k_lo = x - dmin - W + 1
-        if k_lo < 0:
-            k_lo = 0
-        k_hi = x - dmin
-        if k_hi > D - 1:
-            k_hi = D - 1
+        k_lo, k_hi = valid_range(x, W, dmin, D)
         if k_lo > k_hi:
             disp[y, x] = nan
             best[x] = -1
