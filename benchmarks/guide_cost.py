@@ -23,12 +23,12 @@ from stereo_classic.guide import Guide
 from stereo_classic.io import read_image
 from stereo_classic.pipeline import Localizer
 
-__all__ = ["main", "measure"]
+__all__ = ["main", "measure", "oakd_pipeline"]
 
 
-def measure(data: Path, repeat: int = 5, model: str | None = "yolox_nano") -> dict[str, float]:
-    """{"guide_median_ms", "guide_p90_ms", "guide_cpu_median_ms", "pipeline_median_ms", "frames", "width",
-    "height"} over the OAK-D scenes in ``data``."""
+def oakd_pipeline(data: Path, model: str | None = "yolox_nano") -> tuple[calib.RectifiedRig, list[Path], Localizer]:
+    """The OAK-D folder's rig, its ``*_left.png`` files in order, and the pipeline the guide benchmarks run them
+    through (64 disparities; ``model`` when it can be had, else depth only)."""
     rig = calib.load_rig(data / "stereodemo_calibration.json")
     lefts = sorted(data.glob("*_left.png"))
     if not lefts:
@@ -37,6 +37,13 @@ def measure(data: Path, repeat: int = 5, model: str | None = "yolox_nano") -> di
         loc = Localizer(rig, model, {"num_disparities": 64})
     except (FileNotFoundError, ValueError):
         loc = Localizer(rig, None, {"num_disparities": 64})
+    return rig, lefts, loc
+
+
+def measure(data: Path, repeat: int = 5, model: str | None = "yolox_nano") -> dict[str, float]:
+    """{"guide_median_ms", "guide_p90_ms", "guide_cpu_median_ms", "pipeline_median_ms", "frames", "width",
+    "height"} over the OAK-D scenes in ``data``."""
+    rig, lefts, loc = oakd_pipeline(data, model)
     results, pipeline_ms = [], []
     with loc:
         for left in lefts:

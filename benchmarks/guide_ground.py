@@ -21,11 +21,10 @@ from pathlib import Path
 
 import cv2
 
-import calib
+from benchmarks.guide_cost import oakd_pipeline
 from stereo_classic.guide import Guide, fit_ground, sample_points
 from stereo_classic.guide.render import draw_birdseye, draw_overlay
 from stereo_classic.io import read_image
-from stereo_classic.pipeline import Localizer
 
 __all__ = ["main", "measure"]
 
@@ -35,14 +34,7 @@ def measure(data: Path, frames: int = 5, model: str | None = "yolox_nano", save:
     """One dict per ``*_left.png`` in ``data``: ``scene``, ``height_m``, ``pitch_deg``, ``roll_deg`` (None:
     ground unknown), ``heights`` (the sequence's), ``events`` (texts of the first frame), ``seeded``
     (``(height_m, pitch_deg)`` or None per seed)."""
-    rig = calib.load_rig(data / "stereodemo_calibration.json")
-    lefts = sorted(data.glob("*_left.png"))
-    if not lefts:
-        raise FileNotFoundError(f"no *_left.png in {data}")
-    try:
-        loc = Localizer(rig, model, {"num_disparities": 64})
-    except (FileNotFoundError, ValueError):
-        loc = Localizer(rig, None, {"num_disparities": 64})
+    rig, lefts, loc = oakd_pipeline(data, model)
     rows = []
     with loc:
         for left in lefts:
