@@ -173,6 +173,7 @@ def fill_holes_marked(disparity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     out[holes] = filled[holes]
     # the median must not see the placeholder of rows without any known pixel
     near_empty = cv2.dilate(still_unknown.astype(np.uint8), np.ones((3, 3), np.uint8)).astype(bool)
-    out[holes & ~near_empty] = median[holes & ~near_empty]
+    smoothed = holes & ~near_empty
+    out[smoothed] = median[smoothed]
     out[still_unknown] = np.nan
     return out, holes
