@@ -6,8 +6,8 @@ directions run in one sweep in :mod:`.rowpass` instead.
 Design:
 
 * One int16 sum volume ``S`` (H, W, D), disparity innermost. No stored cost volume and no
-  per-path volumes: costs are recomputed per pixel (census: popcount of a xor; SAD: running box
-  sums kept per thread), and the path recursions keep only row buffers.
+  per-path volumes: each pass computes a row's costs as it reaches the row (``cost.row_cost``, the same
+  code as the one-sweep kernel's), and the path recursions keep only row buffers.
 * The 8 directions are split into a *forward* pass (rows top-down, x left-to-right: from the left,
   from above, from the top-left, from the top-right) and a *backward* pass (rows bottom-up, x
   right-to-left: the four opposite directions).
@@ -49,16 +49,12 @@ from stereo_classic.matching._kernels.cost import (
     SAD_PIXEL_MAX,
     NoAliasCompiler,
     census_bits,
-    sad_colsum_advance,
-    sad_colsum_init,
-    sad_hsum_init,
-    valid_range,
+    row_cost,
 )
 from stereo_classic.matching._kernels.intrinsics import (
     add16,
     and16,
     min16,
-    popxor16,
     sub16,
 )
 from stereo_classic.matching._kernels.select import right_view_row, select_row
@@ -166,23 +162,14 @@ class ThreadBuffers(NamedTuple):
         Skewed path-vector slots of the horizontal, vertical and two diagonal directions.
     min_h, min_v, min_a, min_b : (slots,) int16
         Minimum of each path vector.
-    cost : (D,) int16
-        Cost of the current pixel.
+    crow : (W * D,) int16
+        Costs of the current row (``cost.row_cost``).
     sums : (W * D,) int16
         Complete sums of the current row (backward pass, when the volume does not keep them).
     row_min : (W,) int16
         Minimum complete sum per pixel of the row.
     k_index : (D,) int16
         0 .. D - 1.
-    colsum : ((W + 2h) * D,) int16
-        SAD column sums ((1,) placeholder for census).
-    hsum : (D,) int32
-        SAD window sum of the current pixel.
-    rrev : (4 * (W + D - 1),) uint16
-        Census code quarters of the current right row, reversed ((1,) for SAD).
-    srev, irev : (2 * (W + 2h + D - 1),) int16
-        Gradient and intensity channels of two right rows, reversed (as ``cost.RowCostBuffers``: (1,) for census;
-        irev (1,) but for SAD).
     right_sums, right_k : (W + D - 1,) int16
         Right view: best sum and its disparity index per right pixel.
     best : (W,) int64
@@ -201,15 +188,10 @@ class ThreadBuffers(NamedTuple):
     min_v: np.ndarray
     min_a: np.ndarray
     min_b: np.ndarray
-    cost: np.ndarray
+    crow: np.ndarray
     sums: np.ndarray
     row_min: np.ndarray
     k_index: np.ndarray
-    colsum: np.ndarray
-    hsum: np.ndarray
-    rrev: np.ndarray
-    srev: np.ndarray
-    irev: np.ndarray
     right_sums: np.ndarray
     right_k: np.ndarray
     best: np.ndarray
@@ -297,7 +279,7 @@ def _lr(P, rb, c, m, q, p1, k):  # pragma: no cover - numba
 
 
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - numba
+def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cover - numba
     """Run one 4-path pass: forward (``plan.step`` +1) or backward (-1), over ``plan.n_rows`` rows.
 
     Parameters
@@ -310,6 +292,8 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
         Penalties, path mask and the selection settings, the same for every pass of one match.
     plan : PassPlan
         Rows, direction, and what this pass does with the sums (store, accumulate, select).
+    cbufs : cost.RowCostBuffers
+        This thread's cost state (``cost.row_cost``).
     bufs : ThreadBuffers
         This thread's row buffers (never shared with a concurrent pass).
     out : PassOutputs
@@ -318,8 +302,8 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
     ``plan.accumulate``: add to the sum volume instead of storing (the complete sums go back to it
     only when ``plan.keep_sums``, else to the row buffer ``bufs.sums``); ``plan.select`` (backward pass
     only): keep each pixel's minimum, and at the row's end find the right view's winners and resolve the row
-    (``select.right_view_row``, ``select.select_row``); ``plan.init_cost``: (SAD) build the column sums from
-    scratch at the first row.
+    (``select.right_view_row``, ``select.select_row``); ``plan.init_cost``: (SAD and the gradient term) build
+    the column sums from scratch at the first row.
 
     Path vectors: slots of E = D + 2 int16 (sentinels at both ends), minima in MH/MV/MA/MB. In pass
     coordinates (i = position along the row in processing order, v = rows processed since the
@@ -328,23 +312,11 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
     w = i - 2v + 2H, diagonal B (from (v-1, i+1)) w = i + 1. Each write overwrites a vector the
     row has already consumed, so no copies and no temporaries are needed; slots never written
     hold zeros = the path start. Horizontal: two slots, alternating.
-    C: (D,) cost of the current pixel.
+    crow: the row's costs (``cost.row_cost``), those of pixel x at ``x * D``.
     """
     # Short local names for the loops below (the arithmetic reads like the paper's recursion).
     limg = images.left
-    lcode = images.left_code
-    rcode = images.right_code
-    lsob = images.left_sobel
-    lint = images.left_intensity
-    rsob = images.right_sobel
-    rint = images.right_intensity
-    kind = cost.kind
     dmin = cost.min_disparity
-    h = cost.half_block
-    shift = cost.shift
-    cmax = cost.cmax
-    cinv = cost.invalid_cost
-    gmul = np.int32(cost.grad_mul)
     p1 = settings.p1
     p2 = settings.p2
     adaptive = settings.adaptive_p2
@@ -367,15 +339,9 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
     MV = bufs.min_v
     MA = bufs.min_a
     MB = bufs.min_b
-    C = bufs.cost
     Srow = bufs.sums
     nsrow = bufs.row_min
     kidx = bufs.k_index
-    colsum = bufs.colsum
-    hsum = bufs.hsum
-    rrev = bufs.rrev
-    srev = bufs.srev
-    irev = bufs.irev
     rv = bufs.right_sums
     rd = bufs.right_k
     best = bufs.best
@@ -385,7 +351,8 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
     Sf = out.sums
     H = limg.shape[0]
     W = limg.shape[1]
-    D = C.shape[0]
+    D = kidx.shape[0]
+    crow = bufs.crow
     E = D + 2
     m4 = (path_mask & 15) if step > 0 else ((path_mask >> 4) & 15)
     four = (m4 & 12) != 0
@@ -398,11 +365,9 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
     mk3 = minus1 if m4 & 8 else zero
     p1_16 = np.int16(p1)
     p2_16 = np.int16(p2)
-    cinv16 = np.int16(cinv)
     big = np.int16(_INT16_MAX)
     forward = step > 0
     dst = Sf if keep_sums else Srow
-    nrr = W + D - 1  # length of one reversed right-row quarter
     select_all = select
     for r in range(nrows):
         y = y_first + step * r
@@ -412,63 +377,13 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
         warming = r < warmup
         row = scratch if warming else y
         select = select_all and not warming
-        # --- per-row cost preparation
-        if kind != 1:  # rrev[q * nrr + j] = quarter q of the right code at column clamp(W - 1 - dmin - j)
-            for j in range(nrr):
-                c = W - 1 - dmin - j
-                c = 0 if c < 0 else (W - 1 if c >= W else c)
-                for q in range(4):
-                    rrev[q * nrr + j] = rcode[y, c, q]
-        if kind != 0:
-            if r == 0 and init_cost:
-                sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D, kind == 1)
-            else:
-                sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, D, kind == 1)
+        row_cost(images, cost, y, r == 0 and init_cost, step, cbufs, crow)  # the costs of the row
         for k in range(D):
             PH[k + 1] = zero
         MH[0] = zero
         for i in range(W):
             x = i if forward else W - 1 - i
-            # --- cost of pixel (y, x) (census written out here: a call per pixel costs as much). For
-            # 8 paths and a pixel whose whole range is valid, the census cost is computed inside the
-            # path loop below instead ("fuse": no cost vector stored and reloaded).
-            k_lo, k_hi = valid_range(x, W, dmin, D)
-            fuse = kind == 0 and four and k_lo == 0 and k_hi == D - 1
-            a0 = a1 = a2 = a3 = np.uint16(0)
-            if kind != 1:
-                a0 = lcode[y, x, 0]
-                a1 = lcode[y, x, 1]
-                a2 = lcode[y, x, 2]
-                a3 = lcode[y, x, 3]
-            j0 = W - 1 - x
-            j1 = j0 + nrr
-            j2 = j1 + nrr
-            j3 = j2 + nrr
-            if kind != 1:  # 4 x 16-bit quarters of the census code: vpopcntw, all in int16 lanes
-                if not fuse:
-                    for k in range(D):
-                        C[k] = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
-                                     add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
-            if kind != 0:
-                if i == 0:
-                    sad_hsum_init(hsum, colsum, x, h, D)
-                else:  # move the window from x - step to x (sad_hsum_advance, written out)
-                    bin_ = (x + step * h + h) * D
-                    bout = (x - step * (h + 1) + h) * D
-                    for k in range(D):
-                        hsum[k] += np.int32(colsum[_U(bin_ + k)]) - np.int32(colsum[_U(bout + k)])
-                if kind == 1:
-                    for k in range(D):
-                        sv32 = hsum[k] >> shift
-                        C[k] = np.int16(sv32 if sv32 < cmax else cmax)
-                else:  # census + the window mean of the gradient differences
-                    for k in range(D):
-                        C[k] = add16(C[k], np.int16((hsum[k] * gmul) >> GRAD_SHIFT))  # int32 lanes
-            # disparities whose match is outside the right image: k outside [k_lo, k_hi]
-            if k_lo > 0 or k_hi < D - 1:
-                for k in range(D):
-                    if k < k_lo or k > k_hi:
-                        C[k] = cinv16
+            cb = x * D  # the pixel's costs in crow
             sb = (row * W + x) * D
             db = sb if keep_sums else x * D
             # --- slots: write w, read w + 1 (horizontal: alternate between slots 0 and 1)
@@ -509,47 +424,9 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                 rb = wb + E
                 na = big
                 nb = big
-                if accumulate and fuse:
+                if accumulate:
                     for k in range(D):
-                        c = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
-                                  add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
-                        vh = _lr(PH, rh, c, mh, qh, p1_16, k)
-                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
-                        va = _lr(PA, ra, c, ma, qa, p1_16, k)
-                        vb = _lr(PB, rb, c, mb, qb, p1_16, k)
-                        PH[_U(wh + 1 + k)] = vh
-                        PV[_U(wv + 1 + k)] = vv
-                        PA[_U(wa + 1 + k)] = va
-                        PB[_U(wb + 1 + k)] = vb
-                        nh = min16(nh, vh)
-                        nv = min16(nv, vv)
-                        na = min16(na, va)
-                        nb = min16(nb, vb)
-                        sm = add16(add16(add16(and16(vh, mk0), and16(vv, mk1)), add16(and16(va, mk2), and16(vb, mk3))),
-                                   Sf[_U(sb + k)])
-                        dst[_U(db + k)] = sm
-                        ns = min16(ns, sm)
-                elif not accumulate and fuse:
-                    for k in range(D):
-                        c = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
-                                  add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
-                        vh = _lr(PH, rh, c, mh, qh, p1_16, k)
-                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
-                        va = _lr(PA, ra, c, ma, qa, p1_16, k)
-                        vb = _lr(PB, rb, c, mb, qb, p1_16, k)
-                        PH[_U(wh + 1 + k)] = vh
-                        PV[_U(wv + 1 + k)] = vv
-                        PA[_U(wa + 1 + k)] = va
-                        PB[_U(wb + 1 + k)] = vb
-                        nh = min16(nh, vh)
-                        nv = min16(nv, vv)
-                        na = min16(na, va)
-                        nb = min16(nb, vb)
-                        Sf[_U(sb + k)] = add16(add16(and16(vh, mk0), and16(vv, mk1)),
-                                               add16(and16(va, mk2), and16(vb, mk3)))
-                elif accumulate:
-                    for k in range(D):
-                        c = C[k]
+                        c = crow[_U(cb + k)]
                         vh = _lr(PH, rh, c, mh, qh, p1_16, k)
                         vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
                         va = _lr(PA, ra, c, ma, qa, p1_16, k)
@@ -568,7 +445,7 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                         ns = min16(ns, sm)
                 else:
                     for k in range(D):
-                        c = C[k]
+                        c = crow[_U(cb + k)]
                         vh = _lr(PH, rh, c, mh, qh, p1_16, k)
                         vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
                         va = _lr(PA, ra, c, ma, qa, p1_16, k)
@@ -588,7 +465,7 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
             elif horizontal_only:  # one path (e.g. the backward pass of the 3-direction set): no vertical work
                 if accumulate:
                     for k in range(D):
-                        vh = _lr(PH, rh, C[k], mh, qh, p1_16, k)
+                        vh = _lr(PH, rh, crow[_U(cb + k)], mh, qh, p1_16, k)
                         PH[_U(wh + 1 + k)] = vh
                         nh = min16(nh, vh)
                         sm = add16(vh, Sf[_U(sb + k)])
@@ -596,14 +473,14 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                         ns = min16(ns, sm)
                 else:
                     for k in range(D):
-                        vh = _lr(PH, rh, C[k], mh, qh, p1_16, k)
+                        vh = _lr(PH, rh, crow[_U(cb + k)], mh, qh, p1_16, k)
                         PH[_U(wh + 1 + k)] = vh
                         nh = min16(nh, vh)
                         Sf[_U(sb + k)] = vh
             else:
                 if accumulate:
                     for k in range(D):
-                        c = C[k]
+                        c = crow[_U(cb + k)]
                         vh = _lr(PH, rh, c, mh, qh, p1_16, k)
                         vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
                         PH[_U(wh + 1 + k)] = vh
@@ -615,7 +492,7 @@ def sgm_pass(images, cost, settings, plan, bufs, out):  # pragma: no cover - num
                         ns = min16(ns, sm)
                 else:
                     for k in range(D):
-                        c = C[k]
+                        c = crow[_U(cb + k)]
                         vh = _lr(PH, rh, c, mh, qh, p1_16, k)
                         vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
                         PH[_U(wh + 1 + k)] = vh

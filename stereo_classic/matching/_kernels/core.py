@@ -133,7 +133,7 @@ def _pool(workers: int = 1) -> ThreadPoolExecutor:
         return _POOL
 
 
-def _thread_buffers(H: int, W: int, D: int, kind: int, h: int) -> ThreadBuffers:
+def _thread_buffers(H: int, W: int, D: int) -> ThreadBuffers:
     E = D + 2
     paths, minima = [], []
     for n in (2, W + H + 1, W + 2 * H + 1, W + 2):  # slots of the H, V, A and B directions
@@ -142,11 +142,9 @@ def _thread_buffers(H: int, W: int, D: int, kind: int, h: int) -> ThreadBuffers:
         P[:, E - 1] = _SENTINEL
         paths.append(P.reshape(-1))
         minima.append(np.zeros(n, np.int16))
-    rc = _row_cost_buffers(W, D, kind, h)  # the cost state (its int16 hsum aside: this kernel sums in int32)
     return ThreadBuffers(
-        *paths, *minima, cost=np.zeros(D, np.int16), sums=np.zeros(W * D, np.int16),
-        row_min=np.zeros(W, np.int16), k_index=np.arange(D, dtype=np.int16), colsum=rc.colsum,
-        hsum=np.zeros(D, np.int32), rrev=rc.rrev, srev=rc.srev, irev=rc.irev,
+        *paths, *minima, crow=np.empty(W * D, np.int16), sums=np.zeros(W * D, np.int16),
+        row_min=np.zeros(W, np.int16), k_index=np.arange(D, dtype=np.int16),
         right_sums=np.empty(W + D - 1, np.int16), right_k=np.empty(W + D - 1, np.int16),
         best=np.empty(W, np.int64), counts=np.zeros(2, np.int64),
         claim_cost=np.empty(W, np.int16), claim_k=np.empty(W, np.int16))
@@ -205,9 +203,9 @@ class Workspace:
         if self.S is None:
             return []
         arrays = [self.S]
-        for b in self.bufs:  # ThreadBuffers, or (RowCostBuffers, RowPassBuffers) of the one-sweep kernel
-            for a in b:
-                arrays.extend(a if isinstance(a, tuple) else (a,))
+        for pair in self.bufs:  # (RowCostBuffers, RowPassBuffers or ThreadBuffers) per worker
+            for b in pair:
+                arrays.extend(b)
         return arrays
 
     @property
@@ -240,9 +238,9 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     total += 2 * (H + workers) * W * D  # sum volume with one scratch row per worker
     slots = 2 + (W + H + 1) + (W + 2 * H + 1) + (W + 2)
     per_thread = 2 * E * slots + 2 * slots  # path vectors + minima
-    per_thread += 2 * D + 2 * W * D + 2 * W + 2 * D + 2 * 2 * (W + D) + 8 * W  # C, row sums and minima,
-    # k index, right view, best
-    per_thread += _row_cost_bytes(W, D, kind, h) + 2 * D  # the cost state, its hsum in int32
+    per_thread += 2 * W * D + 2 * W * D + 2 * W + 2 * D + 2 * 2 * (W + D) + 8 * W  # row costs, row sums and
+    # minima, k index, right view, best
+    per_thread += _row_cost_bytes(W, D, kind, h)  # the cost state
     return total + workers * per_thread
 
 
@@ -303,13 +301,14 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     else:
         if one_sweep:
             S = np.empty((H, W, D), np.int16) if keep_sums else np.zeros(1, np.int16)
-            bufs = [(_row_cost_buffers(W, D, kind, h), row_pass_buffers(H, W, D)) for _ in range(n_workers)]
         else:
             S = np.empty((H + n_workers, W, D), np.int16)  # + one scratch row per worker for warm-up rows
-            bufs = [_thread_buffers(H, W, D, kind, h) for _ in range(n_workers)]
+        # per worker: the cost state and the kernel's row buffers
+        kernel_buffers = row_pass_buffers if one_sweep else _thread_buffers
+        bufs = [(_row_cost_buffers(W, D, kind, h), kernel_buffers(H, W, D)) for _ in range(n_workers)]
         if workspace is not None:
             workspace.keep(S, bufs, key)
-    counters = [(b[1] if one_sweep else b).counts for b in bufs]  # rejected by uniqueness, by the LR check
+    counters = [b[1].counts for b in bufs]  # pixels rejected by uniqueness, by the LR check
     for c in counters:
         c[:] = 0
     disp = np.empty((H, W), np.float32)
@@ -329,24 +328,25 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
 
     def stripe(t: int, y0: int, y1: int) -> None:
         a = max(0, y0 - warm_f)
+        cbufs, kbufs = bufs[t]
         if one_sweep:  # one sweep down [y0 - warm, y1): the top path warms up, rows of [y0, y1) are resolved
-            cbufs, rbufs = bufs[t]
-            _reset_row_pass(rbufs, D)
+            _reset_row_pass(kbufs, D)
             three_path_stripe(images, cost_settings, settings,
                               StripePlan(y_first=a, n_rows=y1 - a, warmup=y0 - a, keep_sums=bool(keep_sums),
-                                         select=bool(select)), cbufs, rbufs, out)
+                                         select=bool(select)), cbufs, kbufs, out)
             return
         # forward over [y0 - warm, y1) storing the partial sums of [y0, y1), then backward over
         # [y0, y1 + warm) adding its paths and selecting: both only touch the stripe's own rows
-        _reset_buffers(bufs[t], D)
+        _reset_buffers(kbufs, D)
         sgm_pass(images, cost_settings, settings,
                  PassPlan(y_first=a, n_rows=y1 - a, step=1, accumulate=False, select=False, init_cost=True,
-                          keep_sums=bool(keep_sums), warmup=y0 - a, scratch_row=H + t), bufs[t], out)
+                          keep_sums=bool(keep_sums), warmup=y0 - a, scratch_row=H + t), cbufs, kbufs, out)
         b = min(H, y1 + warm_b)
-        _reset_buffers(bufs[t], D)
+        _reset_buffers(kbufs, D)
         sgm_pass(images, cost_settings, settings,
                  PassPlan(y_first=b - 1, n_rows=b - y0, step=-1, accumulate=True, select=bool(select),
-                          init_cost=True, keep_sums=bool(keep_sums), warmup=b - y1, scratch_row=H + t), bufs[t], out)
+                          init_cost=True, keep_sums=bool(keep_sums), warmup=b - y1, scratch_row=H + t),
+                 cbufs, kbufs, out)
 
     if n_workers == 1:
         for y0, y1 in bands:

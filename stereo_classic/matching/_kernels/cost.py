@@ -342,13 +342,13 @@ def sad_hsum_init(hsum, colsum, x, h, D):  # pragma: no cover - numba
 
 
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def row_cost(images, cost, y, first, bufs, crow):  # pragma: no cover - numba
+def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - numba
     """The matching cost of every pixel of row ``y``: ``crow[x * D + k]`` (int16), disparity ``min_disparity + k``.
 
     ``images``: a ``CostImages`` with census codes as (H, W, 4) uint16 quarters; ``cost``: a ``CostSettings``;
     ``bufs``: a ``RowCostBuffers``. The SAD / gradient column sums are built from scratch when ``first``, else
-    moved down from row ``y - 1`` (rows must then come in order). Disparities whose match falls outside the
-    right image get ``invalid_cost``.
+    moved on from row ``y - step`` (``step`` +1 or -1: rows must then come in that order). Disparities whose
+    match falls outside the right image get ``invalid_cost``.
     """
     lcode = images.left_code
     rcode = images.right_code
@@ -373,7 +373,7 @@ def row_cost(images, cost, y, first, bufs, crow):  # pragma: no cover - numba
         if first:
             sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D, intensity)
         else:
-            sad_colsum_advance(colsum, y, 1, lsob, lint, rsob, rint, srev, irev, dmin, h, D, intensity)
+            sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, D, intensity)
     shift = np.int16(cost.shift)
     cmax = np.int16(cost.cmax)
     gmul = np.int16(cost.grad_mul)
@@ -435,5 +435,5 @@ def cost_volume_kernel(images, cost, bufs, out):  # pragma: no cover - numba
     H, W, D = out.shape
     crow = np.empty(W * D, np.int16)
     for y in range(H):
-        row_cost(images, cost, y, y == 0, bufs, crow)
+        row_cost(images, cost, y, y == 0, 1, bufs, crow)
         out[y] = crow.reshape(W, D)

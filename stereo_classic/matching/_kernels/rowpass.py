@@ -175,7 +175,7 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     for r in range(n_rows):
         y = plan.y_first + r
         warming = r < plan.warmup
-        row_cost(images, cost, y, r == 0, cbufs, crow)
+        row_cost(images, cost, y, r == 0, 1, cbufs, crow)
         # --- left to right: the top path (slot w = x - r + n_rows, predecessor at w + 1) and the left path
         for k in range(D):
             PH[k + 1] = zero
