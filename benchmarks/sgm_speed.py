@@ -182,10 +182,12 @@ def thread_scaling(left: np.ndarray, right: np.ndarray, *, num_disparities: int 
                    name: str = "", pause_s: float = 0.02, on_step=None) -> dict:
     """Time each method at each thread count on one pair: ms, speed-up, efficiency, CPU s per call, same output.
 
-    Per thread count, the methods' first calls are timed apart (compile, allocation) and their outputs kept;
-    then ``repeat`` calls per method run interleaved (rotating order, ``pause_s`` untimed sleep before each, as
-    :func:`benchmarks.timing.time_interleaved`), each wrapped in ``time.process_time()`` (CPU time of every
-    thread of the process). Thread counts run one after another, so that only one matcher's buffers are alive.
+    Each method is prepared once per thread count (a matcher of its own, its buffers alive until the end: for the
+    default 3 paths about 16 MB at 1242x375x128 each); its first call is timed apart (compile, allocation) and its
+    output kept. Then ``repeat`` calls of every (method, thread count) run interleaved in one rotation (rotating
+    order, ``pause_s`` untimed sleep before each, as :func:`benchmarks.timing.time_interleaved`), so that the
+    speed-ups compare calls made side by side, not blocks minutes apart; each call is wrapped in
+    ``time.process_time()`` (CPU time of every thread of the process).
 
     Returns
     -------
@@ -209,55 +211,56 @@ def thread_scaling(left: np.ndarray, right: np.ndarray, *, num_disparities: int 
     chosen = default_methods(list(methods))
     shape = left.shape[:2]
     rows: list[dict] = []
-    base: dict[str, dict] = {}
+    calls: dict[tuple[str, int], object] = {}
+    cpu: dict[tuple[str, int], float] = {}
+    first: dict[tuple[str, int], float] = {}
+    outputs: dict[tuple[str, int], np.ndarray] = {}
     try:
         for t in counts:
             setup = Setup(num_disparities=num_disparities, min_disparity=0, block_size=block_size, threads=t)
-            calls: dict[str, object] = {}
-            cpu: dict[str, float] = {}
-            first: dict[str, float] = {}
-            outputs: dict[str, np.ndarray] = {}
             for m in chosen:
+                key = (m.name, t)
                 runner = m.prepare(setup)
                 t0 = time.perf_counter()
                 out = runner(left, right)
-                first[m.name] = (time.perf_counter() - t0) * 1e3
-                outputs[m.name] = np.array(output_views(out, shape)[0], copy=True)
-                cpu[m.name] = 0.0
+                first[key] = (time.perf_counter() - t0) * 1e3
+                outputs[key] = np.array(output_views(out, shape)[0], copy=True)
+                cpu[key] = 0.0
 
-                def call(r=runner, n=m.name, cpu=cpu):
+                def call(r=runner, k=key):
                     c0 = time.process_time()
                     r(left, right)
-                    cpu[n] += time.process_time() - c0
+                    cpu[k] += time.process_time() - c0
 
-                calls[m.name] = call
+                calls[key] = call
                 if on_step:
                     on_step(f"{m.name} t{t}")
-            timed = time_interleaved(calls, repeat, first_call=False, pause_s=pause_s,
-                                     on_step=(lambda n, t=t: on_step(f"{n} t{t}")) if on_step else None)
+        # every method at every thread count in one rotation: drift of a shared machine hits all counts alike
+        timed = time_interleaved({f"{n} t{t}": c for (n, t), c in calls.items()}, repeat, first_call=False,
+                                 pause_s=pause_s, on_step=on_step)
+        for t in counts:
             for m in chosen:
-                res = timed[m.name]
+                ref = timed[f"{m.name} t1"]
+                key = (m.name, t)
+                res = timed[f"{m.name} t{t}"]
                 row = {"method": m.name, "threads": t, "median_ms": res.median_ms, "min_ms": res.min_ms,
-                       "max_ms": res.max_ms, "first_call_ms": first[m.name], "cpu_s_per_call": cpu[m.name] / repeat,
+                       "max_ms": res.max_ms, "first_call_ms": first[key], "cpu_s_per_call": cpu[key] / repeat,
                        "times_ms": list(res.times_ms)}
-                if t == 1:
-                    base[m.name] = {"row": row, "output": outputs[m.name]}
-                ref = base[m.name]
-                row["speedup"] = ref["row"]["median_ms"] / row["median_ms"] if row["median_ms"] else None
+                row["speedup"] = ref.median_ms / row["median_ms"] if row["median_ms"] else None
                 row["efficiency"] = row["speedup"] / min(t, cores) if row["speedup"] is not None else None
-                row["cpu_ratio"] = (row["cpu_s_per_call"] / ref["row"]["cpu_s_per_call"]
-                                    if ref["row"]["cpu_s_per_call"] > 0 else None)
-                row["identical"] = bool(np.array_equal(outputs[m.name], ref["output"], equal_nan=True))
+                base_cpu = cpu[(m.name, 1)] / repeat
+                row["cpu_ratio"] = row["cpu_s_per_call"] / base_cpu if base_cpu > 0 else None
+                row["identical"] = bool(np.array_equal(outputs[key], outputs[(m.name, 1)], equal_nan=True))
                 rows.append(row)
-            del calls, outputs
     finally:
+        calls.clear()
         cv2.setNumThreads(-1)
     return {
         "available": True, "input": name, "width": int(shape[1]), "height": int(shape[0]),
         "num_disparities": int(num_disparities), "block_size": int(block_size), "cores": cores,
         "threads": list(counts), "repeat": repeat, "methods": [m.name for m in chosen], "rows": rows,
-        "how": (f"per thread count: first call apart, then {repeat} interleaved calls per method ({pause_s * 1e3:.0f} ms "
-                "untimed pause before each); CPU s = time.process_time() delta around each call (all threads of the "
+        "how": (f"first call of each method and thread count apart, then {repeat} calls of every (method, thread "
+                f"count) interleaved in one rotation ({pause_s * 1e3:.0f} ms untimed pause before each); CPU s = time.process_time() delta around each call (all threads of the "
                 "process); efficiency = speed-up / min(threads, usable cores); identical = np.array_equal(output, "
                 "1-thread output, equal_nan=True)"),
     }

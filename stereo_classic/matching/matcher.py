@@ -24,7 +24,7 @@ import numpy as np
 
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching.params import SGMParams
-from stereo_classic.matching.postprocess import fill_holes_marked, filter_speckles
+from stereo_classic.matching.postprocess import _fill_holes_counted, _filter_speckles_counted, fill_bytes, speckle_bytes
 
 __all__ = [
     "compute_disparity",
@@ -365,9 +365,9 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
                                 lr_check=params.lr_check is not None, cost=params.cost,
                                 block_size=params.block_size, threads=params.effective_threads)
     conversion = _conversion_bytes((height, width), dtype)
-    post = (4 + 2 + 4 + 1) * pixels  # speckle: float32 copy, int16 scaled copy, masks
+    post = 4 * pixels + speckle_bytes(height, width)  # the border columns' copy, the speckle filter
     if params.fill_holes:
-        post += (5 * 8 + 4 * 4) * pixels  # row indices (int64) and float temporaries of the fill
+        post += fill_bytes(height, width)
     return int(core + conversion + post)
 
 
@@ -443,7 +443,8 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.adaptive_p2,
         uniqueness=params.uniqueness / 100.0, lr_check=params.lr_check, subpixel=params.subpixel,
         threads=params.effective_threads,
-        lr_mode=params.lr_mode, return_right=params.right_view, workspace=workspace)
+        lr_mode=params.lr_mode, return_right=params.right_view, workspace=workspace,
+        scratch_output=params.speckle_size > 0 or params.fill_holes)  # post-processing makes a new map of it
     t2 = time.perf_counter()
 
     disparity = np.asarray(disparity, dtype=np.float32)
@@ -456,14 +457,18 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         disparity = disparity.copy() if not disparity.flags.writeable else disparity
         disparity[:, short] = np.nan
     valid_before = disparity.size - unknown_matcher - short_range
+    threads = params.effective_threads
     if params.speckle_size > 0:
-        disparity = filter_speckles(disparity, max_size=params.speckle_size, max_diff=params.speckle_range)
-    valid_after_speckle = int(np.count_nonzero(np.isfinite(disparity)))
+        disparity, valid_after_speckle = _filter_speckles_counted(
+            disparity, max_size=params.speckle_size, max_diff=params.speckle_range, threads=threads,
+            workspace=workspace, scratch_output=params.fill_holes)
+    else:
+        valid_after_speckle = int(np.count_nonzero(np.isfinite(disparity)))
     filled = 0
     filled_mask = None
     if params.fill_holes:
-        disparity, filled_mask = fill_holes_marked(disparity)
-        filled = int(np.count_nonzero(filled_mask))
+        disparity, filled_mask, filled = _fill_holes_counted(disparity, threads=threads, n_valid=valid_after_speckle,
+                                                             workspace=workspace)
     border = reach < params.num_disparities  # the full range does not fit: matched with the range that does
     t3 = time.perf_counter()
 

@@ -15,10 +15,12 @@ import cv2
 import numpy as np
 from numba import njit
 
+from stereo_classic.matching._kernels import core as _kernels
+from stereo_classic.matching._kernels import speckle as _speckle
+from stereo_classic.matching._kernels.core import Workspace
+
 __all__ = ["filter_speckles", "fill_holes", "fill_holes_marked"]
 
-# int16 value that marks unknown pixels for cv2.filterSpeckles (it skips pixels equal to newVal).
-_UNKNOWN_I16 = np.iinfo(np.int16).min
 # Largest |scaled disparity| we put into int16 (leaves room below the sentinel).
 _I16_LIMIT = 32000.0
 
@@ -30,92 +32,104 @@ def _check_disparity(disparity: np.ndarray, name: str = "disparity") -> np.ndarr
     return arr
 
 
-def filter_speckles(disparity: np.ndarray, *, max_size: int, max_diff: float) -> np.ndarray:
+def filter_speckles(disparity: np.ndarray, *, max_size: int, max_diff: float, threads: int = 1) -> np.ndarray:
     """Set small connected regions of similar disparity unknown (NaN).
 
-    Uses ``cv2.filterSpeckles`` on a scaled int16 copy (scale 16, i.e. 1/16 px resolution, or
-    less where the disparity magnitude needs it).
+    The regions are those of ``cv2.filterSpeckles`` on a scaled int16 copy (scale 16, i.e. 1/16 px resolution,
+    or less where the disparity magnitude needs it): 4-connected pixels whose scaled values differ by at most
+    ``max_diff`` scaled. They are found in stripes of rows on ``threads`` threads and joined across the stripes'
+    borders (:mod:`stereo_classic.matching._kernels.speckle`): the same map as OpenCV's for any thread count.
 
     Parameters
     ----------
     disparity : (H, W) float32
         Pixels, NaN where unknown.
     max_size : int
-        Regions with fewer pixels than this are removed; 0 returns a copy unchanged.
+        Regions of at most this many pixels are removed; 0 returns a copy unchanged.
     max_diff : float
         Largest disparity difference, pixels, between 4-neighbours of one region.
+    threads : int
+        Worker threads (at most one per stripe of about 48 rows and per CPU the process may use).
 
     Returns
     -------
     (H, W) float32
-        A new map; removed pixels are NaN.
+        A new map; removed pixels are NaN, as are values that were not finite (unless ``max_size`` is 0).
     """
+    return _filter_speckles_counted(disparity, max_size=max_size, max_diff=max_diff, threads=threads)[0]
+
+
+def _filter_speckles_counted(disparity: np.ndarray, *, max_size: int, max_diff: float, threads: int = 1,
+                             workspace: Workspace | None = None, scratch_output: bool = False) -> tuple[np.ndarray, int]:
+    """``filter_speckles``, and how many pixels of its result are known. ``workspace`` keeps the temporaries
+    between calls; with ``scratch_output`` the result is one of them too (for a caller that makes a new map
+    of it)."""
     disp = _check_disparity(disparity)
-    if max_size < 0 or not np.isfinite(max_diff) or max_diff < 0:
-        raise ValueError(f"`max_size` and `max_diff` must be non-negative, got {max_size!r} and {max_diff!r}")
+    if isinstance(max_size, bool) or not isinstance(max_size, (int, np.integer)) or max_size < 0:
+        raise ValueError(f"`max_size` must be a non-negative integer, got {max_size!r}")
+    if not np.isfinite(max_diff) or max_diff < 0:
+        raise ValueError(f"`max_diff` must be a non-negative number of pixels, got {max_diff!r}")
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ValueError(f"`threads` must be a positive integer, got {threads!r}")
     disp = np.ascontiguousarray(disp)
-    lo, hi, n_valid = _finite_range(disp)
-    if max_size == 0 or n_valid == 0:
-        return disp.copy()
-    magnitude = max(abs(float(lo)), abs(float(hi)))
-    scale = 16.0 if magnitude * 16.0 <= _I16_LIMIT else _I16_LIMIT / magnitude
-    scaled = np.empty(disp.shape, np.int16)
-    _to_scaled_int16(disp, np.float32(scale), np.int16(_UNKNOWN_I16), scaled)
-    max_diff_scaled = int(round(max_diff * scale))
-    cv2.filterSpeckles(scaled, _UNKNOWN_I16, int(max_size), max_diff_scaled)
-    out = np.empty_like(disp)
-    _unknown_where(disp, scaled, np.int16(_UNKNOWN_I16), out)
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _finite_range(disp):  # pragma: no cover - numba
-    """(smallest, largest, count) of the finite values (0, 0, 0 when there is none)."""
-    lo = np.float32(np.inf)
-    hi = np.float32(-np.inf)
-    n = 0
-    for v in disp.ravel():
-        if np.isfinite(v):
-            lo = min(lo, v)
-            hi = max(hi, v)
-            n += 1
-    if n == 0:
-        return np.float32(0), np.float32(0), 0
-    return lo, hi, n
-
-
-@njit(cache=True, nogil=True)
-def _to_scaled_int16(disp, scale, unknown, out):  # pragma: no cover - numba
-    """out = rint(disp * scale) as int16 (float32 arithmetic, ties to even), ``unknown`` where disp is not finite."""
-    d = disp.ravel()
-    o = out.ravel()
-    for i in range(d.size):
-        v = d[i]
-        o[i] = np.int16(np.rint(v * scale)) if np.isfinite(v) else unknown
-
-
-@njit(cache=True, nogil=True)
-def _unknown_where(disp, scaled, unknown, out):  # pragma: no cover - numba
-    """out = disp, NaN where ``scaled`` holds ``unknown`` (removed by the speckle filter, or unknown before)."""
-    d = disp.ravel()
-    s = scaled.ravel()
-    o = out.ravel()
-    nan = np.float32(np.nan)
-    for i in range(d.size):
-        o[i] = nan if s[i] == unknown else d[i]
-
-
-@njit(cache=True, nogil=True)
-def _background_fill(disp, filled, still_unknown):  # pragma: no cover - numba
-    """Per row: each unknown pixel takes the smaller of the nearest known values to its left and right (the one
-    that exists); rows without any known pixel get 0 and ``still_unknown``."""
     height, width = disp.shape
+    bands = _kernels.stripes(height) if disp.size else []
+    n_workers = _kernels.workers_for(threads, len(bands))
+    lo, hi, n_valid = _speckle.finite_range_rows(disp, 0, height)
+    if max_size == 0 or n_valid == 0:
+        return disp.copy(), n_valid
+    magnitude = max(abs(float(lo)), abs(float(hi)))
+    scale = np.float32(16.0 if magnitude * 16.0 <= _I16_LIMIT else _I16_LIMIT / magnitude)
+    max_diff_scaled = int(round(max_diff * float(scale)))
+    empty = _scratch(workspace)
+    scaled = empty("speckle_scaled", disp.shape, np.int16)
+    labels = empty("speckle_labels", disp.shape, np.int32)
+    parent = empty("speckle_parent", (disp.size,), np.int32)
+    sizes = empty("speckle_sizes", (disp.size,), np.int32)
+    _kernels.run_stripes(bands, n_workers, lambda t, y0, y1: _speckle.label_stripe(
+        disp, scale, max_diff_scaled, y0, y1, scaled, labels, parent, sizes))
+    _speckle.join_stripes(np.array([y0 for y0, _ in bands[1:]], np.int64), max_diff_scaled, scaled, labels,
+                          parent, sizes)
+    out = empty("speckle_out", disp.shape, np.float32) if scratch_output else np.empty_like(disp)
+    kept = _kernels.run_stripes(bands, n_workers, lambda t, y0, y1: _speckle.apply_stripe(
+        disp, int(max_size), y0, y1, labels, parent, sizes, out))
+    return out, int(sum(kept))
+
+
+def _scratch(workspace: Workspace | None):
+    """``workspace.scratch``, or a fresh ``np.empty`` for every temporary without a workspace."""
+    if workspace is not None:
+        return workspace.scratch
+    return lambda name, shape, dtype: np.empty(shape, dtype)
+
+
+def speckle_bytes(height: int, width: int) -> int:
+    """Bytes ``filter_speckles`` allocates for a (height, width) map: the result, the scaled int16 copy, the
+    labels and the union-find's parents and sizes."""
+    return (4 + 2 + 4 + 4 + 4) * height * width
+
+
+def fill_bytes(height: int, width: int) -> int:
+    """Bytes ``fill_holes_marked`` allocates at most for a (height, width) map: the row fill, its still-unknown
+    mask, the median, the result and its mask (14 bytes a pixel), and where rows without any known pixel need
+    the masked path, its masks and a copy (12 more)."""
+    return (14 + 12) * height * width
+
+
+@njit(cache=True, nogil=True)
+def _background_fill(disp, y0, y1, filled, still_unknown):  # pragma: no cover - numba
+    """Rows [y0, y1): each unknown (not finite) pixel takes the smaller of the nearest known values to its left and
+    right (the one that exists); rows without any known pixel get 0 and ``still_unknown``. Returns how many
+    pixels are ``still_unknown``."""
+    width = disp.shape[1]
     inf = np.float32(np.inf)
-    for y in range(height):
+    zero = np.float32(0.0)
+    n_unknown = 0
+    for y in range(y0, y1):
         last = inf
         for x in range(width):  # left neighbour
             v = disp[y, x]
-            if v == v:
+            if v - v == zero:  # finite
                 last = v
                 filled[y, x] = v
             else:
@@ -123,19 +137,37 @@ def _background_fill(disp, filled, still_unknown):  # pragma: no cover - numba
         nxt = inf
         for x in range(width - 1, -1, -1):  # right neighbour, the smaller of the two
             v = disp[y, x]
-            if v == v:
+            if v - v == zero:
                 nxt = v
             else:
                 b = filled[y, x]
                 b = nxt if nxt < b else b
                 unknown = b == inf
                 still_unknown[y, x] = unknown
-                filled[y, x] = np.float32(0.0) if unknown else b
+                filled[y, x] = zero if unknown else b
+                n_unknown += unknown
                 continue
             still_unknown[y, x] = False
+    return n_unknown
 
 
-def fill_holes(disparity: np.ndarray) -> np.ndarray:
+@njit(cache=True, nogil=True)
+def _take_median(disp, median, y0, y1, out, holes):  # pragma: no cover - numba
+    """Rows [y0, y1): ``out`` = disp where finite, else the median; ``holes`` = not finite. Returns the holes."""
+    width = disp.shape[1]
+    zero = np.float32(0.0)
+    n = 0
+    for y in range(y0, y1):
+        for x in range(width):
+            v = disp[y, x]
+            known = v - v == zero
+            out[y, x] = v if known else median[y, x]
+            holes[y, x] = not known
+            n += not known
+    return n
+
+
+def fill_holes(disparity: np.ndarray, *, threads: int = 1) -> np.ndarray:
     """Fill unknown pixels from the background side of their row, then smooth the filled pixels.
 
     Each unknown pixel takes the smaller (farther, background) of the nearest known disparities to
@@ -147,27 +179,50 @@ def fill_holes(disparity: np.ndarray) -> np.ndarray:
     ----------
     disparity : (H, W) float32
         Pixels, NaN where unknown.
+    threads : int
+        Worker threads for the row fill (the same map for any count).
 
     Returns
     -------
     (H, W) float32
         A new map.
     """
-    return fill_holes_marked(disparity)[0]
+    return fill_holes_marked(disparity, threads=threads)[0]
 
 
-def fill_holes_marked(disparity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def fill_holes_marked(disparity: np.ndarray, *, threads: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """``fill_holes``, and the (H, W) bool mask of the pixels it filled (unknown before, known after)."""
+    out, holes, _ = _fill_holes_counted(disparity, threads=threads)
+    return out, holes
+
+
+def _fill_holes_counted(disparity: np.ndarray, *, threads: int = 1, n_valid: int | None = None,
+                        workspace: Workspace | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+    """``fill_holes_marked`` on ``threads`` threads (the same result for any count), and how many pixels it
+    filled. ``n_valid``: the number of finite pixels, when the caller knows it; ``workspace`` keeps the
+    temporaries between calls."""
     disp = np.ascontiguousarray(_check_disparity(disparity))
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ValueError(f"`threads` must be a positive integer, got {threads!r}")
+    if n_valid is None:
+        n_valid = _speckle.finite_range_rows(disp, 0, disp.shape[0])[2]
+    if n_valid in (0, disp.size):
+        return disp.copy(), np.zeros(disp.shape, np.bool_), 0
+    bands = _kernels.stripes(disp.shape[0])
+    n_workers = _kernels.workers_for(threads, len(bands))
+    empty = _scratch(workspace)
+    filled = empty("fill_filled", disp.shape, np.float32)
+    still_unknown = empty("fill_still_unknown", disp.shape, np.bool_)
+    n_unknown = sum(_kernels.run_stripes(bands, n_workers, lambda t, y0, y1: _background_fill(
+        disp, y0, y1, filled, still_unknown)))
+    median = cv2.medianBlur(filled, 3, dst=empty("fill_median", disp.shape, np.float32))
+    if n_unknown == 0:  # every row has a known pixel: every hole takes the median of the filled map
+        out = np.empty_like(disp)
+        holes = np.empty(disp.shape, np.bool_)
+        n_holes = sum(_kernels.run_stripes(bands, n_workers, lambda t, y0, y1: _take_median(
+            disp, median, y0, y1, out, holes)))
+        return out, holes, int(n_holes)
     valid = np.isfinite(disp)
-    if valid.all() or not valid.any():
-        return disp.copy(), np.zeros(disp.shape, np.bool_)
-    filled = np.empty_like(disp)
-    still_unknown = np.empty(disp.shape, dtype=np.bool_)
-    _background_fill(disp, filled, still_unknown)
-    median = cv2.medianBlur(filled, 3)
-    if not still_unknown.any():  # every row has a known pixel: every hole takes the median of the filled map
-        return np.where(valid, disp, median), ~valid
     holes = ~valid & ~still_unknown
     out = disp.copy()
     out[holes] = filled[holes]
@@ -176,4 +231,4 @@ def fill_holes_marked(disparity: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     smoothed = holes & ~near_empty
     out[smoothed] = median[smoothed]
     out[still_unknown] = np.nan
-    return out, holes
+    return out, holes, int(np.count_nonzero(holes))

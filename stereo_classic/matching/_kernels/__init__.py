@@ -1,7 +1,9 @@
 """The numba kernels of the matcher (private: use ``stereo_classic.matching``).
 
-* ``core``: the fused two-thread SGM passes and their driver (``sgm_match``, ``Workspace``).
-* ``cost``: census and SAD matching costs.
+* ``core``: the driver (``sgm_match``, ``Workspace``): stripes, worker threads, buffers.
+* ``rowpass``: the one-sweep kernel of the default 3 paths; ``aggregate``: the two-pass kernel of 4 and 8 paths.
+* ``cost``: census, census + gradient and SAD costs, one row at a time; ``select``: the winner of a row.
+* ``speckle``: the speckle filter's connected components in stripes.
 * ``intrinsics``: int16 arithmetic and popcount as LLVM operations.
 
 Importing them compiles nothing: numba compiles (or loads from its cache) on the first call.

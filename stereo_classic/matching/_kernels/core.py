@@ -14,7 +14,9 @@ import logging
 import os
 import threading
 import time
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from typing import Any
 
 import numpy as np
 
@@ -56,7 +58,7 @@ from stereo_classic.matching._kernels.rowpass import (
 __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume", "check_penalties", "cost_scale",
            "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
            "ALL_PATHS", "FOUR_PATHS", "THREE_PATHS", "PATH_NAMES", "PATH_STEPS", "PATH_MASKS",
-           "STRIPE_ROWS", "WARMUP_ROWS", "stripes", "usable_cpus"]
+           "STRIPE_ROWS", "WARMUP_ROWS", "stripes", "usable_cpus", "run_stripes", "workers_for"]
 
 #: ``paths`` (the number of aggregation directions) -> the direction mask of the passes.
 PATH_MASKS = {8: ALL_PATHS, 4: FOUR_PATHS, 3: THREE_PATHS}
@@ -133,6 +135,43 @@ def _pool(workers: int = 1) -> ThreadPoolExecutor:
         return _POOL
 
 
+def workers_for(threads: int, n_stripes: int) -> int:
+    """How many workers run ``n_stripes`` stripes for ``threads`` threads: never more than stripes, nor than CPUs
+    to run them (extra threads would only time-slice; measured on 2 cores: 8 workers cost 1.21x the CPU time
+    of 1; the result is the same for any count anyway)."""
+    return max(1, min(int(threads), n_stripes, usable_cpus()))
+
+
+def run_stripes(bands: list[tuple[int, int]], n_workers: int, stripe: Callable[[int, int, int], Any]) -> list[Any]:
+    """Call ``stripe(t, y0, y1)`` for every band, on ``n_workers`` workers (the calling thread is worker 0, the
+    others pool threads; ``t`` names the worker, so that it can use buffers of its own). Each worker takes the
+    next band in turn; which worker runs a band must not change its result. Returns the results in band order."""
+    results: list[Any] = [None] * len(bands)
+    if n_workers <= 1:
+        for i, (y0, y1) in enumerate(bands):
+            results[i] = stripe(0, y0, y1)
+        return results
+    queue = iter(enumerate(bands))
+    lock = threading.Lock()
+
+    def work(t: int) -> None:
+        while True:
+            with lock:
+                item = next(queue, None)
+            if item is None:
+                return
+            i, (y0, y1) = item
+            results[i] = stripe(t, y0, y1)
+
+    futures = [_pool(n_workers - 1).submit(work, t) for t in range(1, n_workers)]
+    try:
+        work(0)
+    finally:
+        for f in futures:
+            f.result()
+    return results
+
+
 def _thread_buffers(H: int, W: int, D: int) -> ThreadBuffers:
     E = D + 2
     paths, minima = [], []
@@ -187,6 +226,7 @@ class Workspace:
         self.S: np.ndarray | None = None
         self.bufs: list[ThreadBuffers] | None = None
         self._key: tuple | None = None
+        self._scratch: dict[str, np.ndarray] = {}
 
     def fits(self, *key) -> bool:
         return self._key == key
@@ -194,15 +234,27 @@ class Workspace:
     def keep(self, S, bufs, key) -> None:
         self.S, self.bufs, self._key = S, bufs, key
 
+    def scratch(self, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
+        """An array kept under ``name`` for one call's temporaries (contents undefined), made anew when the shape
+        or dtype changes: a fresh array of a few MB costs about half a millisecond of page faults a call, more
+        when worker threads fault on it at once."""
+        arr = self._scratch.get(name)
+        if arr is None or arr.shape != tuple(shape) or arr.dtype != np.dtype(dtype):
+            arr = np.empty(shape, dtype)
+            self._scratch[name] = arr
+        return arr
+
     def release(self) -> None:
         """Drop the buffers."""
         self.S = self.bufs = self._key = None
+        self._scratch = {}
 
     def arrays(self) -> list[np.ndarray]:
         """Every buffer kept (empty when none)."""
+        arrays = list(self._scratch.values())
         if self.S is None:
-            return []
-        arrays = [self.S]
+            return arrays
+        arrays.append(self.S)
         for pair in self.bufs:  # (RowCostBuffers, RowPassBuffers or ThreadBuffers) per worker
             for b in pair:
                 arrays.extend(b)
@@ -269,7 +321,7 @@ def _prepare_cost(left, right, cost, census_window, threads=1) -> CostImages:
 
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
          path_mask, adaptive_p2, uniqueness, lr_check, subpixel, threads, select=True, keep_sums=False,
-         workspace=None, return_right=False, lr_mode="full"):
+         workspace=None, return_right=False, lr_mode="full", scratch_output=False):
     if cost not in _KIND:
         raise ValueError(f"`cost` must be one of {sorted(_KIND)}, got {cost!r}")
     check_penalties(cost, block_size, census_window, int(p1), int(p2))
@@ -291,9 +343,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     timings["cost"] = (t1 - t0) * 1e3
 
     bands = stripes(H)
-    # never more workers than stripes, nor than CPUs to run them: extra threads would only time-slice (measured
-    # on 2 cores: 8 workers cost 1.21x the CPU time of 1; the result is the same for any count anyway)
-    n_workers = max(1, min(int(threads), len(bands), usable_cpus()))
+    n_workers = workers_for(threads, len(bands))
     one_sweep = path_mask == THREE_PATHS  # left, top, right: the one-sweep kernel, no sum volume
     key = (one_sweep, bool(keep_sums), H, W, D, kind, h, n_workers)
     if workspace is not None and workspace.fits(*key):
@@ -311,8 +361,8 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     counters = [b[1].counts for b in bufs]  # pixels rejected by uniqueness, by the LR check
     for c in counters:
         c[:] = 0
-    disp = np.empty((H, W), np.float32)
-    dispR = np.empty((H, W), np.float32)
+    disp = workspace.scratch("disparity", (H, W), np.float32) if scratch_output else np.empty((H, W), np.float32)
+    dispR = np.empty((H, W), np.float32)  # returned whenever computed (the "full" LR check computes it)
     lr_thr = -1.0 if lr_check is None else float(lr_check)
     if lr_mode not in ("full", "opencv"):
         raise ValueError(f"`lr_mode` must be 'full' or 'opencv', got {lr_mode!r}")
@@ -348,27 +398,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
                           init_cost=True, keep_sums=bool(keep_sums), warmup=b - y1, scratch_row=H + t),
                  cbufs, kbufs, out)
 
-    if n_workers == 1:
-        for y0, y1 in bands:
-            stripe(0, y0, y1)
-    else:  # each worker takes the next stripe; which worker runs a stripe does not change its result
-        queue = iter(bands)
-        lock = threading.Lock()
-
-        def work(t: int) -> None:
-            while True:
-                with lock:
-                    band = next(queue, None)
-                if band is None:
-                    return
-                stripe(t, *band)
-
-        futures = [_pool(n_workers - 1).submit(work, t) for t in range(1, n_workers)]
-        try:
-            work(0)
-        finally:
-            for f in futures:
-                f.result()
+    run_stripes(bands, n_workers, stripe)
     t2 = time.perf_counter()
     timings["aggregate"] = (t2 - t1) * 1e3
     timings["select"] = 0.0  # fused into the second phase of "aggregate"
@@ -401,7 +431,7 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
               p1: int = 20, p2: int = 80, paths: int = 8, adaptive_p2: bool = False,
               uniqueness: float = 0.0, lr_check: float | None = 1.0, subpixel: bool = True,
               threads: int = 2, workspace: Workspace | None = None, return_right: bool = False,
-              lr_mode: str = "full"
+              lr_mode: str = "full", scratch_output: bool = False
               ) -> tuple[np.ndarray, np.ndarray | None, dict[str, float]]:
     """Semi-global matching of a rectified grey pair (inputs already validated by the caller).
 
@@ -432,6 +462,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
         allocate per call).
     return_right : also return the right-view disparity (computed anyway for lr_mode "full" with the
         LR check on; otherwise about 5 % more time).
+    scratch_output : the left disparity may be an array of ``workspace``, overwritten by its next call (for a
+        caller that makes a new map of it anyway).
 
     Returns
     -------
@@ -461,7 +493,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
                                    census_window=census_window, p1=p1, p2=p2, path_mask=mask,
                                    adaptive_p2=adaptive_p2, uniqueness=uniqueness, lr_check=lr_check,
                                    subpixel=subpixel, threads=threads, workspace=workspace,
-                                   return_right=return_right, lr_mode=lr_mode)
+                                   return_right=return_right, lr_mode=lr_mode,
+                                   scratch_output=scratch_output and workspace is not None)
     return disp, dispR, timings
 
 

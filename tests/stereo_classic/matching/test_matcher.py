@@ -200,6 +200,27 @@ class TestComputeDisparity:
         assert m._workspace is None
         np.testing.assert_array_equal(m.compute(left, right).disparity, first.disparity)
 
+    @pytest.mark.parametrize("post", [{}, dict(fill_holes=False), dict(speckle_size=0),
+                                      dict(speckle_size=0, fill_holes=False), dict(lr_check=None)])
+    def test_stereo_matcher_results_do_not_share_its_scratch_arrays(self, post):
+        """The kernel's raw map and the post-processing temporaries live in the workspace: a result must stay as
+        it was when the next frame is matched, and equal a fresh call's."""
+        a, b = _shift_pair(seed=4, shift=5), _shift_pair(seed=5, shift=9)
+        m = StereoMatcher(num_disparities=16, speckle_size=post.get("speckle_size", 20),
+                          **{k: v for k, v in post.items() if k != "speckle_size"})
+        first = m.compute(*a)
+        kept = [first.disparity.copy(), None if first.filled is None else first.filled.copy()]
+        second = m.compute(*b)
+        np.testing.assert_array_equal(first.disparity, kept[0])
+        if kept[1] is not None:
+            np.testing.assert_array_equal(first.filled, kept[1])
+        for res, pair in ((first, a), (second, b)):
+            fresh = compute_disparity(*pair, m.params)
+            np.testing.assert_array_equal(res.disparity, fresh.disparity)
+            assert res.validity == fresh.validity
+            for arr in (res.disparity, res.filled, res.disparity_right):
+                assert arr is None or not any(np.shares_memory(arr, w) for w in m._workspace.arrays())
+
     def test_stereo_matcher_threads(self):
         from concurrent.futures import ThreadPoolExecutor
 

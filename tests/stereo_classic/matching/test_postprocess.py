@@ -158,3 +158,56 @@ def test_filter_speckles_equals_the_numpy_definition_on_random_maps():
             d *= np.float32(700.0)  # magnitudes beyond 2000 px: a coarser scale
         size, diff = int(rng.integers(0, 12)), float(rng.choice([0.0, 0.5, 2.0]))
         np.testing.assert_array_equal(filter_speckles(d, max_size=size, max_diff=diff), _speckle_reference(d, size, diff))
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3, 5])
+def test_speckles_and_fill_in_stripes_equal_opencv_for_any_thread_count(threads):
+    """Maps tall enough for several stripes (regions cross the stripes' borders): the filter equals OpenCV's and
+    the fill the numpy definition, for every thread count."""
+    rng = np.random.default_rng(9)
+    for i in range(12):
+        h, w = int(rng.integers(60, 260)), int(rng.integers(1, 120))
+        d = np.round(rng.uniform(-5, 60, (h, w)) * rng.choice([0.02, 0.25])).astype(np.float32)  # plateaus
+        d[rng.random((h, w)) < rng.uniform(0, 0.5)] = np.nan
+        if i % 4 == 0:
+            d[:, int(rng.integers(0, w))] = 3.0  # a column-long region through every stripe
+        for size in (0, 4, 60, 5000):
+            np.testing.assert_array_equal(filter_speckles(d, max_size=size, max_diff=1.0, threads=threads),
+                                          _speckle_reference(d, size, 1.0))
+        np.testing.assert_array_equal(fill_holes(d, threads=threads), _fill_reference(d))
+
+
+def test_postprocess_stays_within_its_memory_estimate():
+    import tracemalloc
+
+    from stereo_classic.matching.postprocess import fill_bytes, speckle_bytes
+
+    rng = np.random.default_rng(4)
+    d = np.round(rng.uniform(0, 60, (300, 400)) * 0.25).astype(np.float32)
+    d[rng.random(d.shape) < 0.3] = np.nan
+    d[7] = np.nan  # a row without any known pixel: the fill's masked path
+    filter_speckles(d[:50], max_size=10, max_diff=1.0)  # first-call allocations out of the way
+    fill_holes(d[:50])
+    for func, budget in ((lambda: filter_speckles(d, max_size=10, max_diff=1.0), speckle_bytes(*d.shape)),
+                         (lambda: fill_holes(d), fill_bytes(*d.shape))):
+        tracemalloc.start()
+        try:
+            base = tracemalloc.get_traced_memory()[0]
+            func()
+            peak = tracemalloc.get_traced_memory()[1] - base
+        finally:
+            tracemalloc.stop()
+        assert peak <= budget + 64 * 1024, (peak / d.size, budget / d.size)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(max_size=-1, max_diff=1.0), "`max_size` must be a non-negative integer"),
+    (dict(max_size=2.5, max_diff=1.0), "`max_size` must be a non-negative integer"),
+    (dict(max_size=3, max_diff=-1.0), "`max_diff` must be a non-negative number"),
+    (dict(max_size=3, max_diff=1.0, threads=0), "`threads` must be a positive integer"),
+])
+def test_filter_speckles_names_bad_arguments(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        filter_speckles(np.zeros((4, 4), np.float32), **kwargs)
+    with pytest.raises(ValueError, match="`threads` must be a positive integer"):
+        fill_holes(np.zeros((4, 4), np.float32), threads=1.5)
