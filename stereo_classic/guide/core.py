@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from calib import RectifiedRig
+from stereo_classic.guide._stats import percentile
 from stereo_classic.guide.dropoff import DropOff, find_dropoff
 from stereo_classic.guide.ground import (
     GroundPlane,
@@ -310,7 +311,7 @@ class Guide:
             d = d[np.isfinite(d) & (d + rig.doffs > 0)]
             z = fb / (d + rig.doffs)
             z = z[np.abs(z - zc) < max(0.3, 0.15 * zc)]
-            ratio = float(np.percentile(z, 5)) / zc if z.size >= 10 else 1.0
+            ratio = float(percentile(z, 5)) / zc if z.size >= 10 else 1.0
             if plane is not None:
                 lat, fwd, _ = plane.to_ground(xyz[None, :])[0]
             else:

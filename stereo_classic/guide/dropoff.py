@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from stereo_classic.guide._stats import median, percentile
 from stereo_classic.guide.obstacles import clock_of
 from stereo_classic.guide.params import GuideParams
 
@@ -131,25 +132,25 @@ def find_dropoff(ground_points: np.ndarray, area: np.ndarray, params: GuideParam
     across_below, along_below = across[below], along[below]
     for s in start[:30]:
         band = (along_below >= s * BIN_M) & (along_below < s * BIN_M + 0.5)
-        if band.sum() >= 3 and np.ptp(np.percentile(across_below[band], [5, 95])) >= 0.5 * params.corridor_width:
+        if band.sum() >= 3 and np.ptp(percentile(across_below[band], [5, 95])) >= 0.5 * params.corridor_width:
             first = int(s)
             break
     if first is None:
         return None
     lower_near = along[below] >= first * BIN_M
-    drop = float(-np.median(hgt[below][lower_near]))
+    drop = float(-median(hgt[below][lower_near]))
     seen = level & (along < (first + 1) * BIN_M)
     window = (along >= first * BIN_M) & (along < first * BIN_M + 0.5)     # where the lower surface outweighs
     if not _beyond_the_ground(ground_points, level & (along < first * BIN_M + 0.5), below & window, camera_height):
         return None
     if area[seen].sum() >= _MIN_AREA:
-        edge = float(np.percentile(along[seen], 99))
+        edge = float(percentile(along[seen], 99))
     else:
-        edge = float(np.percentile(along[below][lower_near], 1)) * camera_height / (camera_height + drop)
+        edge = float(percentile(along[below][lower_near], 1)) * camera_height / (camera_height + drop)
     if edge > params.look_ahead:
         return None
     pick = below & (np.abs(along - along[below][lower_near].min()) < 0.5)
-    offset = float(np.median(across[pick])) if pick.any() else 0.0
+    offset = float(median(across[pick])) if pick.any() else 0.0
     lat_c = edge * math.sin(b) + offset * math.cos(b)
     fwd_c = edge * math.cos(b) - offset * math.sin(b)
     return DropOff(distance_m=edge, bearing_deg=float(bearing_deg), lateral_m=lat_c, forward_m=fwd_c, drop_m=drop)

@@ -31,6 +31,8 @@ import numpy as np
 
 from calib import RectifiedRig
 from calib.geometry import points_from_pixels
+from stereo_classic.guide._kernels import inlier_mask, inlier_scatter, score_hypotheses
+from stereo_classic.guide._stats import median, percentile
 from stereo_classic.guide.params import (
     ESTIMATED_HEIGHT_RANGE,
     HEIGHT_RANGE,
@@ -224,7 +226,7 @@ class _Surface:
     def under(self, other: _Surface) -> bool:
         """Whether this surface lies below ``other``: most of its points are more than three inlier bands
         under ``other``'s plane (a tilted copy of the same floor straddles it instead)."""
-        return bool(np.median(self.points @ other.up + other.height_m + 3 * self.band) < 0)
+        return bool(median(self.points @ other.up + other.height_m + 3 * self.band) < 0)
 
 
 #: Candidate points a fit works on (every k-th of them beyond): the plane of 1200 points is as good as that of
@@ -238,19 +240,18 @@ def _refit(cand: np.ndarray, band: np.ndarray, up: np.ndarray, h: float, ref: np
     inliers until it moves by less than 0.2 degrees and 5 mm (at most ``rounds`` times): a floor seen over a
     short span of depth leaves its pitch loosely pinned, and one refit from a hypothesis tilted by a few
     degrees stays tilted. Returns ``up`` (oriented like ``ref``), ``h`` and the inlier mask."""
-    inl = np.abs(cand @ up + h) < band
+    inl = np.empty(len(cand), np.bool_)
+    n_in = inlier_mask(cand, band, up, h, inl)
     for _ in range(rounds):
-        if inl.sum() < 3:
+        if n_in < 3:
             break
-        pts = cand[inl]
-        centre = pts.mean(axis=0)
-        d = pts - centre
-        normal = np.linalg.eigh(d.T @ d)[1][:, 0]             # the direction of least spread (3x3: cheap)
+        centre, scatter = inlier_scatter(cand, inl)
+        normal = np.linalg.eigh(scatter)[1][:, 0]              # the direction of least spread (3x3: cheap)
         new_up = normal if normal @ ref > 0 else -normal
         new_h = float(-(new_up @ centre))
         settled = float(new_up @ up) > _SETTLED_COS and abs(new_h - h) < 0.005
         up, h = new_up, new_h
-        inl = np.abs(cand @ up + h) < band
+        n_in = inlier_mask(cand, band, up, h, inl)
         if settled:
             break
     return up, h, inl
@@ -294,7 +295,7 @@ class _Search:
     def surface(self, mask: np.ndarray) -> tuple[_Surface | None, np.ndarray]:
         """One RANSAC round on the points of ``mask``: the best plane, refitted on all the candidates and
         checked (None: no hypothesis), and the points it explains (to leave out of the next round)."""
-        cand, band, z = self.cand, self.band, self.cand[:, 2]
+        cand, band = self.cand, self.band
         explained = np.zeros(len(cand), bool)
         rest = np.nonzero(mask)[0]
         if len(rest) < 3:                # fewer may still make a plane whose inliers (all of them) are enough
@@ -303,17 +304,15 @@ class _Search:
                                        self.max_roll_deg, self.height_range)
         if not len(normals):
             return None, explained
-        signed = cand @ normals.T + offsets[None, :]                      # (N, K) height above each plane
-        inlier = (np.abs(signed) < band[:, None]).astype(np.float64)
-        support = mask.astype(np.float64) @ inlier
-        # Nothing lies under the ground (but a drop-off): points below a plane count against it, so a table
-        # top or a bed, with the floor under it, loses to the floor. Only those nearer than the plane's own
-        # points: beyond a floor's far edge a drop-off may lie below it.
-        reach = (z @ inlier) / np.maximum(inlier.sum(axis=0), 1)
-        below = ((signed < -3 * band[:, None]) & (z[:, None] < reach[None, :])).sum(axis=0)
-        k = int(np.argmax(support - below))
+        # Score: the points of ``mask`` within a plane's band, less those below it. Nothing lies under the
+        # ground (but a drop-off): points below a plane count against it, so a table top or a bed, with the
+        # floor under it, loses to the floor. Only those nearer than the plane's own points (their mean depth):
+        # beyond a floor's far edge a drop-off may lie below it.
+        k = score_hypotheses(cand, band, mask, normals, offsets)
         up, h, inl = _refit(cand, band, normals[k], float(offsets[k]), self.ref)
-        explained = inl | (np.abs(cand @ normals[k] + offsets[k]) < band)
+        hyp = np.empty(len(cand), np.bool_)
+        inlier_mask(cand, band, normals[k], float(offsets[k]), hyp)
+        explained = inl | hyp
         return self._checked(up, h, inl), explained
 
     def _checked(self, up: np.ndarray, h: float, inl: np.ndarray) -> _Surface:
@@ -334,7 +333,7 @@ class _Search:
             reason = "points below it"
         else:
             lateral = plane.to_ground(cand[inl])[:, 0]
-            lo, hi = np.percentile(lateral, [5, 95])
+            lo, hi = percentile(lateral, [5, 95])
             if hi - lo < self.min_width:
                 reason = "too narrow"
         return _Surface(up, h, n_in, n_below, reason, cand[inl], band[inl])
@@ -405,7 +404,7 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
         cand = xyz[(np.abs(prior.heights(xyz)) < 0.3) & (xyz[:, 2] < 4.0)]
         ref, limit = prior.up, math.radians(max_tilt_deg / 2)
     else:
-        cy = np.median(uv[:, 1]) if len(uv) else 0.0
+        cy = median(uv[:, 1]) if len(uv) else 0.0
         cand = xyz[(uv[:, 1] > cy) & (xyz[:, 1] > 0.05) & (xyz[:, 2] < 4.0)]
         ref, limit = np.array([0.0, -1.0, 0.0]), math.radians(max_tilt_deg)
     if len(cand) < 30:

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from stereo_classic.guide._stats import percentile
 from stereo_classic.guide.params import GuideParams
 
 __all__ = ["CELL_M", "MIN_AREA", "Obstacle", "OccupancyGrid", "clock_of", "find_obstacles", "free_distances"]
@@ -151,7 +152,7 @@ def find_obstacles(ground_points: np.ndarray, area: np.ndarray, params: GuidePar
             if ai.sum() < MIN_AREA:
                 continue
             rng = np.hypot(li, fi)
-            near = float(np.percentile(rng, 2))
+            near = float(percentile(rng, 2))
             cl, cf = float(np.average(li, weights=ai)), float(np.average(fi, weights=ai))
             obstacles.append(Obstacle(
                 lateral_m=cl, forward_m=cf, nearest_m=near, bearing_deg=math.degrees(math.atan2(cl, cf)),
