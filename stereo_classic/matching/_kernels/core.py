@@ -43,9 +43,9 @@ from stereo_classic.matching._kernels.cost import (
     CostImages,
     CostSettings,
     RowCostBuffers,
-    census_quarters,
+    census_quarters_rows,
     cost_volume_kernel,
-    sad_prefilter,
+    sobel_rows,
 )
 from stereo_classic.matching._kernels.rowpass import (
     RowPassBuffers,
@@ -58,7 +58,7 @@ from stereo_classic.matching._kernels.rowpass import (
 __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume", "check_penalties", "cost_scale",
            "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
            "ALL_PATHS", "FOUR_PATHS", "THREE_PATHS", "PATH_NAMES", "PATH_STEPS", "PATH_MASKS",
-           "STRIPE_ROWS", "WARMUP_ROWS", "stripes", "usable_cpus", "run_stripes", "workers_for"]
+           "STRIPE_ROWS", "WARMUP_ROWS", "stripes", "usable_cpus", "run_stripes", "run_tasks", "workers_for"]
 
 #: ``paths`` (the number of aggregation directions) -> the direction mask of the passes.
 PATH_MASKS = {8: ALL_PATHS, 4: FOUR_PATHS, 3: THREE_PATHS}
@@ -143,15 +143,20 @@ def workers_for(threads: int, n_stripes: int) -> int:
 
 
 def run_stripes(bands: list[tuple[int, int]], n_workers: int, stripe: Callable[[int, int, int], Any]) -> list[Any]:
-    """Call ``stripe(t, y0, y1)`` for every band, on ``n_workers`` workers (the calling thread is worker 0, the
-    others pool threads; ``t`` names the worker, so that it can use buffers of its own). Each worker takes the
-    next band in turn; which worker runs a band must not change its result. Returns the results in band order."""
-    results: list[Any] = [None] * len(bands)
+    """Call ``stripe(t, y0, y1)`` for every band (:func:`run_tasks`); the results in band order."""
+    return run_tasks(bands, n_workers, lambda t, band: stripe(t, *band))
+
+
+def run_tasks(tasks: list[Any], n_workers: int, fn: Callable[[int, Any], Any]) -> list[Any]:
+    """Call ``fn(t, task)`` for every task, on ``n_workers`` workers (the calling thread is worker 0, the others
+    pool threads; ``t`` names the worker, so that it can use buffers of its own). Each worker takes the next
+    task in turn; which worker runs a task must not change its result. Returns the results in task order."""
+    results: list[Any] = [None] * len(tasks)
     if n_workers <= 1:
-        for i, (y0, y1) in enumerate(bands):
-            results[i] = stripe(0, y0, y1)
+        for i, task in enumerate(tasks):
+            results[i] = fn(0, task)
         return results
-    queue = iter(enumerate(bands))
+    queue = iter(enumerate(tasks))
     lock = threading.Lock()
 
     def work(t: int) -> None:
@@ -160,8 +165,8 @@ def run_stripes(bands: list[tuple[int, int]], n_workers: int, stripe: Callable[[
                 item = next(queue, None)
             if item is None:
                 return
-            i, (y0, y1) = item
-            results[i] = stripe(t, y0, y1)
+            i, task = item
+            results[i] = fn(t, task)
 
     futures = [_pool(n_workers - 1).submit(work, t) for t in range(1, n_workers)]
     try:
@@ -301,21 +306,36 @@ def _placeholder(dtype, ndim: int) -> np.ndarray:
     return np.zeros((1,) * ndim, dtype)
 
 
-def _prepare_cost(left, right, cost, census_window, threads=1) -> CostImages:
-    def one(img):  # census quarters and / or the x-Sobel channel (with the image itself for SAD) of one image
-        code = census_quarters(img, census_window) if cost != "sad" else _placeholder(np.uint16, 3)
-        sob, inten = sad_prefilter(img) if cost != "census" else (_placeholder(np.int16, 2), None)
-        if cost != "sad":
-            inten = _placeholder(np.int16, 2)  # no intensity term: the kernels read no intensity image
-        return code, sob, inten
+def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None) -> CostImages:
+    """The cost's input images of both views: census quarters and / or the x-Sobel channel (with the image itself
+    for SAD), made in stripes of rows of both images on ``threads`` workers, into arrays of ``workspace``."""
+    H, W = left.shape
+    w, h = census_window
+    census, sobel = cost != "sad", cost != "census"
+    def scratch(name, shape, dtype):
+        return workspace.scratch(name, shape, dtype) if workspace is not None else np.empty(shape, dtype)
 
-    if threads >= 2:  # the right image in a pool thread meanwhile
-        fut = _pool(1).submit(one, right)
-        lcode, lsob, lint = one(left)
-        rcode, rsob, rint = fut.result()
-    else:
-        lcode, lsob, lint = one(left)
-        rcode, rsob, rint = one(right)
+    views = []
+    for side, img in (("left", left), ("right", right)):
+        views.append((
+            np.pad(img, ((h // 2, h // 2), (w // 2, w // 2)), mode="edge") if census else None,
+            scratch(side + "_code", (H, W, 4), np.uint16) if census else _placeholder(np.uint16, 3),
+            np.pad(img, 1, mode="edge") if sobel else None,
+            scratch(side + "_sobel", (H, W), np.int16) if sobel else _placeholder(np.int16, 2),
+            # no intensity term but for SAD: the kernels read no intensity image then
+            img.astype(np.int16) if cost == "sad" else _placeholder(np.int16, 2)))
+
+    def rows(t: int, task) -> None:
+        side, (y0, y1) = task
+        padded_c, code, padded_s, sob, _ = views[side]
+        if census:
+            census_quarters_rows(padded_c, w // 2, h // 2, y0, y1, code)
+        if sobel:
+            sobel_rows(padded_s, y0, y1, sob)
+
+    tasks = [(side, band) for side in (0, 1) for band in stripes(H)]
+    run_tasks(tasks, workers_for(threads, len(tasks)), rows)
+    (_, lcode, _, lsob, lint), (_, rcode, _, rsob, rint) = views
     return CostImages(left, lcode, rcode, lsob, lint, rsob, rint)
 
 
@@ -338,7 +358,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     timings = {}
 
     t0 = time.perf_counter()
-    images = _prepare_cost(left, right, cost, census_window, threads)
+    images = _prepare_cost(left, right, cost, census_window, threads, workspace)
     t1 = time.perf_counter()
     timings["cost"] = (t1 - t0) * 1e3
 

@@ -45,11 +45,13 @@ __all__ = [
     "CostImages",
     "CostSettings",
     "census_quarters",
+    "census_quarters_rows",
     "census_bits",
     "row_cost",
     "valid_range",
     "RowCostBuffers",
     "sad_prefilter",
+    "sobel_rows",
     "cost_volume_kernel",
     "NoAliasCompiler",
 ]
@@ -131,13 +133,13 @@ def census_bits(census_window: tuple[int, int]) -> int:
 
 
 @njit(cache=True, nogil=True)
-def _census_quarters_kernel(padded, hw, hh, out):  # pragma: no cover - numba
-    """out[y, x, q]: the 16-bit quarter q of the census code (neighbour n of the window, in row order, is bit
-    nbits - 1 - n of the 64-bit code)."""
-    H, W = out.shape[0], out.shape[1]
+def census_quarters_rows(padded, hw, hh, y0, y1, out):  # pragma: no cover - numba
+    """out[y, x, q] for the rows [y0, y1): the 16-bit quarter q of the census code (neighbour n of the window, in
+    row order, is bit nbits - 1 - n of the 64-bit code) of the image ``padded`` by (hh, hw) replicated pixels."""
+    W = out.shape[1]
     nbits = (2 * hw + 1) * (2 * hh + 1) - 1
     acc = np.zeros((4, W), np.uint16)
-    for y in range(H):
+    for y in range(y0, y1):
         acc[:] = 0
         centre = padded[y + hh, hw:hw + W]
         n = 0  # neighbour n lands on bit nbits - 1 - n of the 64-bit code, i.e. quarter (nbits - 1 - n) // 16
@@ -163,8 +165,21 @@ def census_quarters(image: np.ndarray, census_window: tuple[int, int]) -> np.nda
     w, h = census_window
     padded = np.pad(image, ((h // 2, h // 2), (w // 2, w // 2)), mode="edge")
     out = np.empty(image.shape + (4,), np.uint16)
-    _census_quarters_kernel(padded, w // 2, h // 2, out)
+    census_quarters_rows(padded, w // 2, h // 2, 0, image.shape[0], out)
     return out
+
+
+@njit(cache=True, nogil=True)
+def sobel_rows(padded, y0, y1, out):  # pragma: no cover - numba
+    """``sad_prefilter``'s Sobel channel for the rows [y0, y1), from the image ``padded`` by one replicated pixel."""
+    W = out.shape[1]
+    cap = SOBEL_CAP
+    for y in range(y0, y1):
+        a, b, c = padded[y], padded[y + 1], padded[y + 2]
+        for x in range(W):
+            gx = ((np.int32(a[x + 2]) - np.int32(a[x])) + 2 * (np.int32(b[x + 2]) - np.int32(b[x]))
+                  + (np.int32(c[x + 2]) - np.int32(c[x])))
+            out[y, x] = np.int16(min(max(gx, -cap), cap) + cap)
 
 
 def sad_prefilter(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

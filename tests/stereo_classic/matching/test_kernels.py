@@ -181,6 +181,30 @@ def test_census_quarters_are_the_census_codes_bit_for_bit(census_window):
     np.testing.assert_array_equal(quarters, codes.view(np.uint16).reshape(13, 37, 4))
 
 
+@pytest.mark.parametrize("cost", ["census", "census+grad", "sad"])
+def test_cost_images_made_in_stripes_equal_the_whole_image_ones_for_any_thread_count(cost):
+    """The driver makes the census quarters and the Sobel channel of both views by stripes of rows on the workers,
+    into the workspace's arrays: the same as ``census_quarters`` and ``sad_prefilter`` of each whole image."""
+    from stereo_classic.matching._kernels.core import Workspace, _prepare_cost
+    from stereo_classic.matching._kernels.cost import census_quarters, sad_prefilter
+
+    rng = np.random.default_rng(3)
+    left, right = (rng.integers(0, 256, (150, 61), dtype=np.uint8) for _ in range(2))  # three stripes
+    workspace = Workspace()
+    for threads in (1, 2, 3, 5):
+        images = _prepare_cost(left, right, cost, (9, 7), threads, workspace)
+        for img, code, sob, inten in ((left, images.left_code, images.left_sobel, images.left_intensity),
+                                      (right, images.right_code, images.right_sobel, images.right_intensity)):
+            if cost != "sad":
+                np.testing.assert_array_equal(code, census_quarters(img, (9, 7)))
+            if cost != "census":
+                np.testing.assert_array_equal(sob, sad_prefilter(img)[0])
+            if cost == "sad":
+                np.testing.assert_array_equal(inten, sad_prefilter(img)[1])
+            else:
+                assert inten.size == 1  # not read: a placeholder
+
+
 # ---------------------------------------------------------------------------------------------
 # selection: WTA, uniqueness, subpixel, right view, LR check
 
