@@ -312,6 +312,7 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None) -
     H, W = left.shape
     w, h = census_window
     census, sobel = cost != "sad", cost != "census"
+
     def scratch(name, shape, dtype):
         return workspace.scratch(name, shape, dtype) if workspace is not None else np.empty(shape, dtype)
 

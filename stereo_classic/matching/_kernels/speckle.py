@@ -22,35 +22,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["finite_range_rows", "label_stripe", "join_stripes", "apply_stripe"]
-
-
-@njit(cache=True, nogil=True)
-def finite_range_rows(disp, y0, y1):  # pragma: no cover - numba
-    """(smallest, largest, count) of the finite values in rows [y0, y1) (inf, -inf, 0 when there is none)."""
-    inf = np.float32(np.inf)
-    lo = np.full(16, inf, np.float32)  # 16 lanes without branches, so that the loop vectorises
-    hi = np.full(16, -inf, np.float32)
-    n = np.zeros(16, np.int32)
-    f = disp.ravel()[y0 * disp.shape[1]:y1 * disp.shape[1]]
-    m = f.size // 16
-    for i in range(m):
-        for j in range(16):
-            v = f[i * 16 + j]
-            finite = v - v == np.float32(0.0)  # NaN - NaN and inf - inf are NaN
-            a = v if finite else inf
-            b = v if finite else -inf
-            lo[j] = a if a < lo[j] else lo[j]
-            hi[j] = b if b > hi[j] else hi[j]
-            n[j] += finite
-    small, large, count = lo.min(), hi.max(), int(n.sum())
-    for i in range(m * 16, f.size):
-        v = f[i]
-        if v - v == np.float32(0.0):
-            small = min(small, v)
-            large = max(large, v)
-            count += 1
-    return small, large, count
+__all__ = ["apply_stripe", "join_stripes", "label_stripe"]
 
 
 @njit(cache=True, nogil=True, inline="always")
