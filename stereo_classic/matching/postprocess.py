@@ -25,6 +25,8 @@ __all__ = ["filter_speckles", "fill_holes", "fill_holes_marked"]
 
 # Largest |scaled disparity| we put into int16 (leaves room below the sentinel).
 _I16_LIMIT = 32000.0
+# Region labels are int32 pixel indices.
+_MAX_LABELS = 2**31 - 1
 
 
 def _check_disparity(disparity: np.ndarray, name: str = "disparity") -> np.ndarray:
@@ -73,8 +75,11 @@ def _filter_speckles_counted(disparity: np.ndarray, *, max_size: int, max_diff: 
         raise ValueError(f"`max_diff` must be a non-negative number of pixels, got {max_diff!r}")
     if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
         raise ValueError(f"`threads` must be a positive integer, got {threads!r}")
+    if disp.size >= _MAX_LABELS:
+        raise ValueError(f"`disparity` has {disp.size} pixels; the speckle filter labels at most {_MAX_LABELS - 1} "
+                         "(int32 region labels): filter it in parts")
     disp = np.ascontiguousarray(disp)
-    height, width = disp.shape
+    height = disp.shape[0]
     bands = _kernels.stripes(height) if disp.size else []
     n_workers = _kernels.workers_for(threads, len(bands))
     lo, hi, n_valid = _finite_range(disp)

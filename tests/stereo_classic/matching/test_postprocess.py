@@ -211,3 +211,12 @@ def test_filter_speckles_names_bad_arguments(kwargs, match):
         filter_speckles(np.zeros((4, 4), np.float32), **kwargs)
     with pytest.raises(ValueError, match="`threads` must be a positive integer"):
         fill_holes(np.zeros((4, 4), np.float32), threads=1.5)
+
+
+def test_filter_speckles_refuses_maps_beyond_its_int32_labels(monkeypatch):
+    from stereo_classic.matching import postprocess
+
+    monkeypatch.setattr(postprocess, "_MAX_LABELS", 16)
+    with pytest.raises(ValueError, match="`disparity` has 16 pixels; the speckle filter labels at most 15"):
+        filter_speckles(np.zeros((4, 4), np.float32), max_size=3, max_diff=1.0)
+    filter_speckles(np.zeros((3, 5), np.float32), max_size=3, max_diff=1.0)  # 15 pixels: fine
