@@ -51,7 +51,8 @@ def test_readme_block_numbers_come_from_the_report():
     assert row == (f"| driving (2) | sc-default | {mean['dense']['bad2']:.2f} | {mean['all']['bad2']:.2f} | "
                    f"{mean['valid']['bad2']:.2f} | {mean['valid']['density']:.1f} |")
     assert "`sc-default` 40.0 ms; `ocv-3way` 50.0 ms (1.25x)" in text
-    assert "threads 1 / 2 / 4 / 8: `sc-default` 80.0 / 40.0 / 40.0 / 40.0 ms" in text
+    assert ("threads 1 / 2 / 4 / 8: `sc-default` 80.0 / 40.0 / 40.0 / 40.0 ms (speed-up 1.00 / 2.00 / 2.00 / 2.00; "
+            "fastest calls 1.00 / 1.41 / 1.41 / 1.41)") in text
     assert "bit-identical at every thread count: yes" in text
     assert "1242x375x128 15.0 frames/s; 640x480x64 30.0 frames/s" in text  # not the concurrent row
     assert report["command"][-1] in text

@@ -32,7 +32,10 @@ def test_thread_scaling_table_on_a_tiny_pair():
         assert r["median_ms"] > 0 and r["cpu_s_per_call"] >= 0 and isinstance(r["identical"], bool)
         assert r["efficiency"] == pytest.approx(r["speedup"] / min(r["threads"], res["cores"]))
     firsts = [r for r in res["rows"] if r["threads"] == 1]
-    assert all(r["speedup"] == 1.0 and r["identical"] for r in firsts)
+    assert all(r["speedup"] == 1.0 and r["speedup_best"] == 1.0 and r["identical"] for r in firsts)
+    one = {r["method"]: r for r in firsts}
+    for r in res["rows"]:
+        assert r["speedup_best"] == pytest.approx(one[r["method"]]["min_ms"] / r["min_ms"])
     assert "tiny" == res["input"] and "identical" in format_scaling(res)
 
 
