@@ -197,7 +197,7 @@ class SGMParams:
     subpixel : bool
         Parabola subpixel refinement. Default True.
     speckle_size : int
-        Connected regions (of disparities within ``speckle_range``) smaller than this many
+        Connected regions (of disparities within ``speckle_range``) of at most this many
         pixels are set unknown; 0 = off. Default 100.
     speckle_range : float
         Largest disparity step inside one speckle region, pixels. Default 2.0.
@@ -252,7 +252,7 @@ class SGMParams:
     right_view: bool = False
     subpixel: bool = dataclasses.field(default=True, metadata={"help": "integer disparities only"})
     speckle_size: int = dataclasses.field(default=100, metadata={
-        "help": "remove regions smaller than this many pixels, 0 = off", "metavar": "PIXELS"})
+        "help": "remove regions of at most this many pixels, 0 = off", "metavar": "PIXELS"})
     speckle_range: float = dataclasses.field(default=2.0, metadata={
         "help": "largest disparity step inside one speckle region, px", "metavar": "PX"})
     border_reach: float = dataclasses.field(default=0.5, metadata={
