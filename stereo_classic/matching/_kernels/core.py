@@ -58,7 +58,7 @@ from stereo_classic.matching._kernels.rowpass import (
 __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume", "check_penalties", "cost_scale",
            "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
            "ALL_PATHS", "FOUR_PATHS", "THREE_PATHS", "PATH_NAMES", "PATH_STEPS", "PATH_MASKS",
-           "STRIPE_ROWS", "WARMUP_ROWS", "stripes", "usable_cpus", "run_stripes", "run_tasks", "workers_for"]
+           "STRIPE_ROWS", "WARMUP_ROWS", "stripes", "usable_cpus", "run_chained", "run_stripes", "run_tasks", "workers_for"]
 
 #: ``paths`` (the number of aggregation directions) -> the direction mask of the passes.
 PATH_MASKS = {8: ALL_PATHS, 4: FOUR_PATHS, 3: THREE_PATHS}
@@ -177,6 +177,42 @@ def run_tasks(tasks: list[Any], n_workers: int, fn: Callable[[int, Any], Any]) -
     return results
 
 
+def run_chained(n_items: int, n_workers: int, fn: Callable[[int, int, bool], Any]) -> None:
+    """Call ``fn(t, i, after)`` for i in 0 .. n_items - 1 on ``n_workers`` workers, each worker going down a run of
+    consecutive items: ``after`` says that worker ``t``'s previous call was item i - 1 (so it may reuse what that
+    call left in the worker's buffers). Worker t starts at item ``t * n_items // n_workers``; when its next item is
+    taken (or there is none) it takes the last free item. Which worker runs an item, and whether ``after`` is true,
+    must not change the result."""
+    if n_workers <= 1:
+        for i in range(n_items):
+            fn(0, i, i > 0)
+        return
+    taken = [False] * n_items
+    lock = threading.Lock()
+    starts = [t * n_items // n_workers for t in range(n_workers)]
+
+    def work(t: int) -> None:
+        prev = -2
+        nxt = starts[t]
+        while True:
+            with lock:
+                if not (0 <= nxt < n_items and not taken[nxt]):
+                    free = [i for i in range(n_items) if not taken[i]]
+                    if not free:
+                        return
+                    nxt = free[-1]
+                taken[nxt] = True
+            fn(t, nxt, nxt == prev + 1)
+            prev, nxt = nxt, nxt + 1
+
+    futures = [_pool(n_workers - 1).submit(work, t) for t in range(1, n_workers)]
+    try:
+        work(0)
+    finally:
+        for f in futures:
+            f.result()
+
+
 def _thread_buffers(H: int, W: int, D: int) -> ThreadBuffers:
     E = D + 2
     paths, minima = [], []
@@ -277,8 +313,8 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     4 and 8 paths: the int16 sum volume (2 * H * W * D) dominates; the rest is the two float32 outputs, the
     cost inputs (census codes or prefiltered images) and per-thread row buffers (about
     2 * (D + 2) * (3 W + 3 H) bytes per worker thread, at most one worker per stripe). 3 paths (the one-sweep
-    kernel): no volume, three W x D row buffers and the top path's skewed vectors per worker (about
-    2 * D * (4 W + H) bytes). ``lr_check`` does not change it.
+    kernel): no volume, W x D row buffers, the costs of WARMUP_ROWS rows and the top path's skewed vectors per
+    worker (about 2 * D * (20 W + H) bytes). ``lr_check`` does not change it.
     """
     H, W, D = int(height), int(width), int(num_disparities)
     kind = _KIND.get(cost, CENSUS)
@@ -291,7 +327,7 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     if kind != CENSUS:  # prefiltered images (gradient; and intensity for SAD)
         total += 2 * 2 * H * W * (2 if kind == SAD else 1) + 2 * (H + 2) * (W + 2) * 2
     if paths == 3:
-        return total + workers * (row_pass_bytes(H, W, D) + _row_cost_bytes(W, D, kind, h))
+        return total + workers * (row_pass_bytes(H, W, D, WARMUP_ROWS) + _row_cost_bytes(W, D, kind, h))
     total += 2 * (H + workers) * W * D  # sum volume with one scratch row per worker
     slots = 2 + (W + H + 1) + (W + 2 * H + 1) + (W + 2)
     per_thread = 2 * E * slots + 2 * slots  # path vectors + minima
@@ -375,8 +411,9 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
         else:
             S = np.empty((H + n_workers, W, D), np.int16)  # + one scratch row per worker for warm-up rows
         # per worker: the cost state and the kernel's row buffers
-        kernel_buffers = row_pass_buffers if one_sweep else _thread_buffers
-        bufs = [(_row_cost_buffers(W, D, kind, h), kernel_buffers(H, W, D)) for _ in range(n_workers)]
+        bufs = [(_row_cost_buffers(W, D, kind, h),
+                 row_pass_buffers(H, W, D, WARMUP_ROWS) if one_sweep else _thread_buffers(H, W, D))
+                for _ in range(n_workers)]
         if workspace is not None:
             workspace.keep(S, bufs, key)
     counters = [b[1].counts for b in bufs]  # pixels rejected by uniqueness, by the LR check
@@ -397,15 +434,22 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     warm_f = WARMUP_ROWS if path_mask & 0x0E else 0
     warm_b = WARMUP_ROWS if path_mask & 0xE0 else 0
 
+    def sweep(t: int, i: int, after: bool) -> None:
+        # one sweep down [y0 - warm, y1): the top path warms up, rows of [y0, y1) are resolved. A worker that ran
+        # the stripe above reads the warm-up rows' costs it made (its last rows) instead of making them again.
+        y0, y1 = bands[i]
+        a = max(0, y0 - warm_f)
+        cbufs, kbufs = bufs[t]
+        _reset_row_pass(kbufs, D)
+        cached = after and y0 - a == WARMUP_ROWS
+        tail = WARMUP_ROWS if i + 1 < len(bands) and y1 - y0 >= WARMUP_ROWS else 0
+        three_path_stripe(images, cost_settings, settings,
+                          StripePlan(y_first=a, n_rows=y1 - a, warmup=y0 - a, keep_sums=bool(keep_sums),
+                                     select=bool(select), cached=cached, tail=tail), cbufs, kbufs, out)
+
     def stripe(t: int, y0: int, y1: int) -> None:
         a = max(0, y0 - warm_f)
         cbufs, kbufs = bufs[t]
-        if one_sweep:  # one sweep down [y0 - warm, y1): the top path warms up, rows of [y0, y1) are resolved
-            _reset_row_pass(kbufs, D)
-            three_path_stripe(images, cost_settings, settings,
-                              StripePlan(y_first=a, n_rows=y1 - a, warmup=y0 - a, keep_sums=bool(keep_sums),
-                                         select=bool(select)), cbufs, kbufs, out)
-            return
         # forward over [y0 - warm, y1) storing the partial sums of [y0, y1), then backward over
         # [y0, y1 + warm) adding its paths and selecting: both only touch the stripe's own rows
         _reset_buffers(kbufs, D)
@@ -419,7 +463,10 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
                           init_cost=True, keep_sums=bool(keep_sums), warmup=b - y1, scratch_row=H + t),
                  cbufs, kbufs, out)
 
-    run_stripes(bands, n_workers, stripe)
+    if one_sweep:
+        run_chained(len(bands), n_workers, sweep)
+    else:
+        run_stripes(bands, n_workers, stripe)
     t2 = time.perf_counter()
     timings["aggregate"] = (t2 - t1) * 1e3
     timings["select"] = 0.0  # fused into the second phase of "aggregate"

@@ -50,6 +50,12 @@ class StripePlan(NamedTuple):
         Write the complete sums of the stripe's own rows to ``PassOutputs.sums`` (test entry ``sum_volume``).
     select : bool
         Resolve the pixels (else only the sums are computed).
+    cached : bool
+        The warm-up rows' costs are in ``RowPassBuffers.warm_costs`` and the cost state (``RowCostBuffers``) has
+        just made the row before the stripe: this worker ran the stripe above, whose last rows these are. Their
+        costs are read instead of made again (integer costs: the same numbers either way).
+    tail : int
+        Make the costs of the last ``tail`` rows into ``warm_costs`` (the next stripe's warm-up rows), 0: none.
     """
 
     y_first: int
@@ -57,6 +63,8 @@ class StripePlan(NamedTuple):
     warmup: int
     keep_sums: bool
     select: bool
+    cached: bool = False
+    tail: int = 0
 
 
 class RowPassBuffers(NamedTuple):
@@ -64,8 +72,10 @@ class RowPassBuffers(NamedTuple):
 
     Attributes
     ----------
-    crow : (W * D,) int16
-        Cost of every pixel of the current row.
+    costs : (R + 1, W * D) int16
+        Cost of every pixel of a row: row R for the current row, rows 0 .. R - 1 for a stripe's last R rows (R =
+        the warm-up rows), which the same worker's next stripe warms up on (one array, so that the kernel reads
+        every row's costs from one buffer: a choice between two buffers cost the loops their vectorisation).
     srow : (W * D,) int16
         Left + top sums of the row, then (after the right-to-left sweep) the complete sums.
     path_v : ((W + H + 1) * E,) int16
@@ -89,7 +99,7 @@ class RowPassBuffers(NamedTuple):
         OpenCV-style LR check: cost and disparity index of each right pixel's claim.
     """
 
-    crow: np.ndarray
+    costs: np.ndarray
     srow: np.ndarray
     path_v: np.ndarray
     min_v: np.ndarray
@@ -105,7 +115,7 @@ class RowPassBuffers(NamedTuple):
     claim_k: np.ndarray
 
 
-def row_pass_buffers(H: int, W: int, D: int) -> RowPassBuffers:
+def row_pass_buffers(H: int, W: int, D: int, warm_rows: int = 0) -> RowPassBuffers:
     """Fresh buffers for one worker (path vectors zero = the path start, sentinels in place)."""
     E = D + 2
     slots = W + H + 1
@@ -114,7 +124,7 @@ def row_pass_buffers(H: int, W: int, D: int) -> RowPassBuffers:
     ph = np.zeros((2, E), np.int16)
     ph[:, 0] = ph[:, E - 1] = _SENTINEL
     return RowPassBuffers(
-        crow=np.empty(W * D, np.int16), srow=np.empty(W * D, np.int16), path_v=pv.reshape(-1),
+        costs=np.empty((warm_rows + 1, W * D), np.int16), srow=np.empty(W * D, np.int16), path_v=pv.reshape(-1),
         min_v=np.zeros(slots, np.int16), path_h=ph.reshape(-1), min_h=np.zeros(2, np.int16),
         row_min=np.empty(W, np.int16), k_index=np.arange(D, dtype=np.int16),
         right_sums=np.empty(W + D - 1, np.int16), right_k=np.empty(W + D - 1, np.int16),
@@ -122,12 +132,12 @@ def row_pass_buffers(H: int, W: int, D: int) -> RowPassBuffers:
         claim_cost=np.empty(W, np.int16), claim_k=np.empty(W, np.int16))
 
 
-def row_pass_bytes(H: int, W: int, D: int) -> int:
-    """Bytes of ``row_pass_buffers(H, W, D)``."""
+def row_pass_bytes(H: int, W: int, D: int, warm_rows: int = 0) -> int:
+    """Bytes of ``row_pass_buffers(H, W, D, warm_rows)``."""
     E = D + 2
     slots = W + H + 1
-    return (2 * 2 * W * D + 2 * slots * E + 2 * slots + 2 * 2 * E + 4 + 2 * W + 2 * D + 2 * 2 * (W + D - 1)
-            + 8 * W + 16 + 2 * 2 * W)
+    return (2 * (warm_rows + 2) * W * D + 2 * slots * E + 2 * slots + 2 * 2 * E + 4 + 2 * W + 2 * D
+            + 2 * 2 * (W + D - 1) + 8 * W + 16 + 2 * 2 * W)
 
 
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
@@ -155,7 +165,6 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     p2 = np.int16(settings.p2)
     adaptive = settings.adaptive_p2
     dmin = cost.min_disparity
-    crow = bufs.crow
     srow = bufs.srow
     PV = bufs.path_v
     MV = bufs.min_v
@@ -172,10 +181,18 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     big = np.int16(_INT16_MAX)
     zero = np.int16(0)
     n_rows = plan.n_rows
+    cached = plan.cached
+    tail_start = n_rows - plan.tail
+    costs = bufs.costs
+    current = costs.shape[0] - 1
     for r in range(n_rows):
         y = plan.y_first + r
         warming = r < plan.warmup
-        row_cost(images, cost, y, r == 0, 1, cbufs, crow)
+        if warming and cached:  # made by the stripe above on this worker (its last rows)
+            crow = costs[r]
+        else:
+            crow = costs[r - tail_start if r >= tail_start else current]
+            row_cost(images, cost, y, r == 0 and not cached, 1, cbufs, crow)
         # --- left to right: the top path (slot w = x - r + n_rows, predecessor at w + 1) and the left path
         for k in range(D):
             PH[k + 1] = zero

@@ -522,6 +522,49 @@ def test_same_output_for_every_thread_count(paths, monkeypatch):
         assert got[2:] == first[2:]
 
 
+@pytest.mark.parametrize("cost", ["census+grad", "sad", "census"])
+def test_warm_up_costs_reused_down_a_run_of_stripes_change_nothing(cost, monkeypatch):
+    """A worker that ran the stripe above reads the warm-up rows' costs it made instead of making them again (and
+    carries the cost state on): the same maps as when every stripe makes its own, for any thread count."""
+    monkeypatch.setattr(core, "usable_cpus", lambda: 64)
+    tex = _textured(400, 70, seed=5)
+    left = np.round(tex).astype(np.uint8)
+    right = np.round(_sample_rows(tex, np.arange(70)[None, :].repeat(400, 0) + 4)).astype(np.uint8)
+    assert len(core.stripes(400)) >= 8
+    kw = dict(cost=cost, num_disparities=16, p1=28 if cost != "sad" else 200, p2=112 if cost != "sad" else 800,
+              paths=3, uniqueness=0.05, lr_check=1.0, return_right=True)
+    chained = core.run_chained
+    calls = []
+
+    def counting(n, workers, fn):
+        chained(n, workers, lambda t, i, after: (calls.append(after), fn(t, i, after)))
+
+    monkeypatch.setattr(core, "run_chained", counting)
+    runs = [core.sgm_match(left, right, threads=threads, **kw) for threads in (1, 2, 3, 5, 8)]
+    assert sum(calls) >= 7  # the 1-thread call alone reuses the costs at every border
+    monkeypatch.setattr(core, "run_chained",
+                        lambda n, workers, fn: chained(n, workers, lambda t, i, after: fn(t, i, False)))
+    fresh = core.sgm_match(left, right, threads=1, **kw)
+    for d, dr, t in runs:
+        np.testing.assert_array_equal(d, fresh[0])
+        np.testing.assert_array_equal(dr, fresh[1])
+        assert (t["n_failed_lr"], t["n_failed_uniqueness"]) == (fresh[2]["n_failed_lr"], fresh[2]["n_failed_uniqueness"])
+
+
+def test_run_chained_runs_every_item_once_down_runs():
+    import threading
+
+    seen, lock = [], threading.Lock()
+    for workers in (1, 2, 3, 8):
+        seen.clear()
+        core.run_chained(11, workers, lambda t, i, after: (lock.acquire(), seen.append((t, i, after)), lock.release()))
+        assert sorted(i for _, i, _ in seen) == list(range(11))
+        last: dict[int, int] = {}
+        for t, i, after in seen:  # after is true exactly when the same worker's previous item was i - 1
+            assert after == (last.get(t) == i - 1)
+            last[t] = i
+
+
 @pytest.mark.parametrize("threads", [1, 3])
 def test_horizontal_paths_are_exact_across_stripes(threads):
     """Left and right paths never cross a row: on a tall image cut into stripes they equal the reference."""
