@@ -1,6 +1,6 @@
 """The numba kernels of the matcher (private: use ``stereo_classic.matching``).
 
-* ``core``: the driver (``sgm_match``, ``Workspace``): stripes, worker threads, buffers.
+* ``core``: the driver (``sgm_match``, ``Workspace``): stripes and buffers; ``workers``: the worker threads.
 * ``rowpass``: the one-sweep kernel of the default 3 paths; ``aggregate``: the two-pass kernel of 4 and 8 paths.
 * ``cost``: census, census + gradient and SAD costs, one row at a time; ``select``: the winner of a row.
 * ``speckle``: the speckle filter's connected components in stripes.

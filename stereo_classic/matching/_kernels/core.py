@@ -1,9 +1,10 @@
-"""The kernels' Python side: worker threads, per-thread buffers, and the entry points.
+"""The kernels' Python side: stripes, per-thread buffers, and the entry points (the threads: :mod:`.workers`).
 
 ``sgm_match`` cuts the image into stripes of about STRIPE_ROWS rows (fixed by the image height) and runs on
 each either the one-sweep three-direction kernel of :mod:`.rowpass` (``paths=3``, the default: no sum volume)
 or the fused forward and backward passes of :mod:`.aggregate` (4 and 8 paths), the workers (the calling thread
-and pool threads) taking the stripes in turn, with buffers kept in a :class:`Workspace` across calls;
+and pool threads) going down runs of stripes (3 paths) or taking them in turn, with buffers kept in a
+:class:`Workspace` across calls;
 ``sum_volume`` and ``cost_volume`` expose intermediate results for the tests against
 :mod:`stereo_classic.matching.reference`.
 """
@@ -12,11 +13,7 @@ from __future__ import annotations
 
 import logging
 import os
-import threading
 import time
-from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
-from typing import Any
 
 import numpy as np
 
@@ -54,23 +51,19 @@ from stereo_classic.matching._kernels.rowpass import (
     row_pass_bytes,
     three_path_stripe,
 )
+from stereo_classic.matching._kernels.workers import run_chained, run_stripes, run_tasks
 
 __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume", "check_penalties", "cost_scale",
            "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
            "ALL_PATHS", "FOUR_PATHS", "THREE_PATHS", "PATH_NAMES", "PATH_STEPS", "PATH_MASKS",
-           "STRIPE_ROWS", "WARMUP_ROWS", "stripes", "usable_cpus", "run_chained", "run_stripes", "run_tasks", "workers_for"]
+           "STRIPE_ROWS", "WARMUP_ROWS", "stripes", "usable_cpus", "run_chained", "run_stripes", "run_tasks",
+           "workers_for"]
 
 #: ``paths`` (the number of aggregation directions) -> the direction mask of the passes.
 PATH_MASKS = {8: ALL_PATHS, 4: FOUR_PATHS, 3: THREE_PATHS}
 
 # ----------------------------------------------------------------------------------------------
 # driver
-
-_POOL: ThreadPoolExecutor | None = None
-_POOL_LOCK = threading.Lock()
-
-
-_POOL_SIZE = 0
 
 #: Target stripe height (rows) of the parallel decomposition, and the warm-up rows run above (forward) or
 #: below (backward) a stripe by passes that have vertical or diagonal paths. Both depend on nothing but the
@@ -122,95 +115,11 @@ def usable_cpus() -> int:
     return max(1, n)
 
 
-def _pool(workers: int = 1) -> ThreadPoolExecutor:
-    """The shared worker pool, with at least ``workers`` threads."""
-    global _POOL, _POOL_SIZE
-    with _POOL_LOCK:
-        if _POOL is None or _POOL_SIZE < workers:
-            old = _POOL
-            _POOL = ThreadPoolExecutor(max_workers=max(1, workers), thread_name_prefix="sgm")
-            _POOL_SIZE = max(1, workers)
-            if old is not None:
-                old.shutdown(wait=False)
-        return _POOL
-
-
 def workers_for(threads: int, n_stripes: int) -> int:
     """How many workers run ``n_stripes`` stripes for ``threads`` threads: never more than stripes, nor than CPUs
     to run them (extra threads would only time-slice; measured on 2 cores: 8 workers cost 1.21x the CPU time
     of 1; the result is the same for any count anyway)."""
     return max(1, min(int(threads), n_stripes, usable_cpus()))
-
-
-def run_stripes(bands: list[tuple[int, int]], n_workers: int, stripe: Callable[[int, int, int], Any]) -> list[Any]:
-    """Call ``stripe(t, y0, y1)`` for every band (:func:`run_tasks`); the results in band order."""
-    return run_tasks(bands, n_workers, lambda t, band: stripe(t, *band))
-
-
-def run_tasks(tasks: list[Any], n_workers: int, fn: Callable[[int, Any], Any]) -> list[Any]:
-    """Call ``fn(t, task)`` for every task, on ``n_workers`` workers (the calling thread is worker 0, the others
-    pool threads; ``t`` names the worker, so that it can use buffers of its own). Each worker takes the next
-    task in turn; which worker runs a task must not change its result. Returns the results in task order."""
-    results: list[Any] = [None] * len(tasks)
-    if n_workers <= 1:
-        for i, task in enumerate(tasks):
-            results[i] = fn(0, task)
-        return results
-    queue = iter(enumerate(tasks))
-    lock = threading.Lock()
-
-    def work(t: int) -> None:
-        while True:
-            with lock:
-                item = next(queue, None)
-            if item is None:
-                return
-            i, task = item
-            results[i] = fn(t, task)
-
-    futures = [_pool(n_workers - 1).submit(work, t) for t in range(1, n_workers)]
-    try:
-        work(0)
-    finally:
-        for f in futures:
-            f.result()
-    return results
-
-
-def run_chained(n_items: int, n_workers: int, fn: Callable[[int, int, bool], Any]) -> None:
-    """Call ``fn(t, i, after)`` for i in 0 .. n_items - 1 on ``n_workers`` workers, each worker going down a run of
-    consecutive items: ``after`` says that worker ``t``'s previous call was item i - 1 (so it may reuse what that
-    call left in the worker's buffers). Worker t starts at item ``t * n_items // n_workers``; when its next item is
-    taken (or there is none) it takes the last free item. Which worker runs an item, and whether ``after`` is true,
-    must not change the result."""
-    if n_workers <= 1:
-        for i in range(n_items):
-            fn(0, i, i > 0)
-        return
-    taken = [False] * n_items
-    lock = threading.Lock()
-    starts = [t * n_items // n_workers for t in range(n_workers)]
-
-    def work(t: int) -> None:
-        prev = -2
-        nxt = starts[t]
-        while True:
-            with lock:
-                if not (0 <= nxt < n_items and not taken[nxt]):
-                    free = [i for i in range(n_items) if not taken[i]]
-                    if not free:
-                        return
-                    nxt = free[-1]
-                taken[nxt] = True
-            fn(t, nxt, nxt == prev + 1)
-            prev, nxt = nxt, nxt + 1
-
-    futures = [_pool(n_workers - 1).submit(work, t) for t in range(1, n_workers)]
-    try:
-        work(0)
-    finally:
-        for f in futures:
-            f.result()
 
 
 def _thread_buffers(H: int, W: int, D: int) -> ThreadBuffers:

@@ -1,0 +1,102 @@
+"""The kernels' worker threads: one shared pool, and the ways the driver hands stripes (or other tasks) to it.
+
+The calling thread is always worker 0 and the pool's threads the others; which worker runs a task must never
+change its result (the decomposition is fixed by the image size: see ``core.stripes``).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+__all__ = ["pool", "run_chained", "run_stripes", "run_tasks"]
+
+_POOL: ThreadPoolExecutor | None = None
+_POOL_LOCK = threading.Lock()
+_POOL_SIZE = 0
+
+
+def pool(workers: int = 1) -> ThreadPoolExecutor:
+    """The shared worker pool, with at least ``workers`` threads."""
+    global _POOL, _POOL_SIZE
+    with _POOL_LOCK:
+        if _POOL is None or _POOL_SIZE < workers:
+            old = _POOL
+            _POOL = ThreadPoolExecutor(max_workers=max(1, workers), thread_name_prefix="sgm")
+            _POOL_SIZE = max(1, workers)
+            if old is not None:
+                old.shutdown(wait=False)
+        return _POOL
+
+
+def run_stripes(bands: list[tuple[int, int]], n_workers: int, stripe: Callable[[int, int, int], Any]) -> list[Any]:
+    """Call ``stripe(t, y0, y1)`` for every band (:func:`run_tasks`); the results in band order."""
+    return run_tasks(bands, n_workers, lambda t, band: stripe(t, *band))
+
+
+def run_tasks(tasks: list[Any], n_workers: int, fn: Callable[[int, Any], Any]) -> list[Any]:
+    """Call ``fn(t, task)`` for every task, on ``n_workers`` workers (the calling thread is worker 0, the others
+    pool threads; ``t`` names the worker, so that it can use buffers of its own). Each worker takes the next
+    task in turn; which worker runs a task must not change its result. Returns the results in task order."""
+    results: list[Any] = [None] * len(tasks)
+    if n_workers <= 1:
+        for i, task in enumerate(tasks):
+            results[i] = fn(0, task)
+        return results
+    queue = iter(enumerate(tasks))
+    lock = threading.Lock()
+
+    def work(t: int) -> None:
+        while True:
+            with lock:
+                item = next(queue, None)
+            if item is None:
+                return
+            i, task = item
+            results[i] = fn(t, task)
+
+    futures = [pool(n_workers - 1).submit(work, t) for t in range(1, n_workers)]
+    try:
+        work(0)
+    finally:
+        for f in futures:
+            f.result()
+    return results
+
+
+def run_chained(n_items: int, n_workers: int, fn: Callable[[int, int, bool], Any]) -> None:
+    """Call ``fn(t, i, after)`` for i in 0 .. n_items - 1 on ``n_workers`` workers, each worker going down a run of
+    consecutive items: ``after`` says that worker ``t``'s previous call was item i - 1 (so it may reuse what that
+    call left in the worker's buffers). Worker t starts at item ``t * n_items // n_workers``; when its next item is
+    taken (or there is none) it takes the last free item. Which worker runs an item, and whether ``after`` is true,
+    must not change the result."""
+    if n_workers <= 1:
+        for i in range(n_items):
+            fn(0, i, i > 0)
+        return
+    taken = [False] * n_items
+    lock = threading.Lock()
+    starts = [t * n_items // n_workers for t in range(n_workers)]
+
+    def work(t: int) -> None:
+        prev = -2
+        nxt = starts[t]
+        while True:
+            with lock:
+                if not (0 <= nxt < n_items and not taken[nxt]):
+                    free = [i for i in range(n_items) if not taken[i]]
+                    if not free:
+                        return
+                    nxt = free[-1]
+                taken[nxt] = True
+            fn(t, nxt, nxt == prev + 1)
+            prev, nxt = nxt, nxt + 1
+
+    futures = [pool(n_workers - 1).submit(work, t) for t in range(1, n_workers)]
+    try:
+        work(0)
+    finally:
+        for f in futures:
+            f.result()
