@@ -51,11 +51,12 @@ class StripePlan(NamedTuple):
     select : bool
         Resolve the pixels (else only the sums are computed).
     cached : bool
-        The warm-up rows' costs are in ``RowPassBuffers.warm_costs`` and the cost state (``RowCostBuffers``) has
-        just made the row before the stripe: this worker ran the stripe above, whose last rows these are. Their
-        costs are read instead of made again (integer costs: the same numbers either way).
+        The warm-up rows' costs are in the first rows of ``RowPassBuffers.costs`` and the cost state
+        (``RowCostBuffers``) has just made the row before the stripe: this worker ran the stripe above, whose last
+        rows these are. Their costs are read instead of made again (integer costs: the same numbers either way).
     tail : int
-        Make the costs of the last ``tail`` rows into ``warm_costs`` (the next stripe's warm-up rows), 0: none.
+        Make the costs of the last ``tail`` rows into the first rows of ``costs`` (the next stripe's warm-up rows),
+        0: none.
     """
 
     y_first: int
