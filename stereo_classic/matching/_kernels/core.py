@@ -388,14 +388,15 @@ _log = logging.getLogger("stereo_classic")
 _compile_note_done = False
 
 
-def _note_first_compile() -> None:
+def _note_first_compile(paths: int = 3) -> None:
     """Say once per process when the kernels are about to be compiled (no numba cache yet)."""
     global _compile_note_done
     if _compile_note_done:
         return
     _compile_note_done = True
-    try:  # numba's cache index of the main kernel; private attributes, so only a hint
-        index = sgm_pass._cache._cache_file._index_path
+    kernel = three_path_stripe if paths == 3 else sgm_pass  # the one this call runs (the default: 3 paths)
+    try:  # numba's cache index of that kernel; private attributes, so only a hint
+        index = kernel._cache._cache_file._index_path
     except AttributeError:
         return
     if not os.path.exists(index):
@@ -452,7 +453,7 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
         per-pixel costs and the fused selection), "select" (0: fused); plus the pixel counts
         "n_failed_uniqueness" and "n_failed_lr" (int) that the filters set to NaN.
     """
-    _note_first_compile()
+    _note_first_compile(paths)
     for name, img in (("left", left), ("right", right)):
         if not (isinstance(img, np.ndarray) and img.dtype == np.uint8 and img.ndim == 2 and img.size
                 and img.flags.c_contiguous):

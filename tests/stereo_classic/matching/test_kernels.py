@@ -579,3 +579,22 @@ def test_horizontal_paths_are_exact_across_stripes(threads):
 def test_usable_cpus_honours_the_affinity_mask():
     n = core.usable_cpus()
     assert 1 <= n <= len(os.sched_getaffinity(0))
+
+
+@pytest.mark.parametrize("paths, kernel", [(3, "three_path_stripe"), (8, "sgm_pass")])
+def test_first_compile_note_looks_at_the_kernel_the_call_runs(paths, kernel, monkeypatch, caplog, tmp_path):
+    """The "compiling once" note is said when the cache of the kernel this call runs is missing, and only then."""
+    import logging
+
+    cached, missing = tmp_path / "cached.nbi", tmp_path / "missing.nbi"
+    cached.write_bytes(b"")
+    other = "sgm_pass" if kernel == "three_path_stripe" else "three_path_stripe"
+    for name, index in ((kernel, missing), (other, cached)):
+        monkeypatch.setattr(getattr(core, name)._cache._cache_file, "_index_path", str(index))
+    for index, said in ((missing, True), (cached, False)):
+        monkeypatch.setattr(getattr(core, kernel)._cache._cache_file, "_index_path", str(index))
+        monkeypatch.setattr(core, "_compile_note_done", False)
+        caplog.clear()
+        with caplog.at_level(logging.INFO, logger="stereo_classic"):
+            core._note_first_compile(paths)
+        assert ("compiling the stereo kernels once" in caplog.text) == said
