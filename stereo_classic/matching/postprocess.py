@@ -79,16 +79,15 @@ def _filter_speckles_counted(disparity: np.ndarray, *, max_size: int, max_diff: 
         raise ValueError(f"`disparity` has {disp.size} pixels; the speckle filter labels at most {_MAX_LABELS - 1} "
                          "(int32 region labels): filter it in parts")
     disp = np.ascontiguousarray(disp)
-    height = disp.shape[0]
-    bands = _kernels.stripes(height) if disp.size else []
-    n_workers = _kernels.workers_for(threads, len(bands))
     lo, hi, n_valid = _finite_range(disp)
     if max_size == 0 or n_valid == 0:
         return disp.copy(), n_valid
+    bands = _kernels.stripes(disp.shape[0])
+    n_workers = _kernels.workers_for(threads, len(bands))
     magnitude = max(abs(float(lo)), abs(float(hi)))
     scale = np.float32(16.0 if magnitude * 16.0 <= _I16_LIMIT else _I16_LIMIT / magnitude)
     max_diff_scaled = int(round(max_diff * float(scale)))
-    empty = _scratch(workspace)
+    empty = _kernels.scratch_allocator(workspace)
     scaled = empty("speckle_scaled", disp.shape, np.int16)
     labels = empty("speckle_labels", disp.shape, np.int32)
     parent = empty("speckle_parent", (disp.size,), np.int32)
@@ -116,13 +115,6 @@ def _finite_range(disp: np.ndarray) -> tuple[float, float, int]:
     if math.isnan(lo):  # every value NaN
         return 0.0, 0.0, 0
     return lo, hi, flat.size - int(np.count_nonzero(np.isnan(flat)))
-
-
-def _scratch(workspace: Workspace | None):
-    """``workspace.scratch``, or a fresh ``np.empty`` for every temporary without a workspace."""
-    if workspace is not None:
-        return workspace.scratch
-    return lambda name, shape, dtype: np.empty(shape, dtype)
 
 
 def speckle_bytes(height: int, width: int) -> int:
@@ -232,7 +224,7 @@ def _fill_holes_counted(disparity: np.ndarray, *, threads: int = 1, n_valid: int
         return disp.copy(), np.zeros(disp.shape, np.bool_), 0
     bands = _kernels.stripes(disp.shape[0])
     n_workers = _kernels.workers_for(threads, len(bands))
-    empty = _scratch(workspace)
+    empty = _kernels.scratch_allocator(workspace)
     filled = empty("fill_filled", disp.shape, np.float32)
     still_unknown = empty("fill_still_unknown", disp.shape, np.bool_)
     n_unknown = sum(_kernels.run_stripes(bands, n_workers, lambda t, y0, y1: _background_fill(

@@ -14,6 +14,8 @@ from __future__ import annotations
 import logging
 import os
 import time
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -57,7 +59,7 @@ __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume"
            "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
            "ALL_PATHS", "FOUR_PATHS", "THREE_PATHS", "PATH_NAMES", "PATH_STEPS", "PATH_MASKS",
            "STRIPE_ROWS", "WARMUP_ROWS", "stripes", "usable_cpus", "run_chained", "run_stripes", "run_tasks",
-           "workers_for"]
+           "scratch_allocator", "workers_for"]
 
 #: ``paths`` (the number of aggregation directions) -> the direction mask of the passes.
 PATH_MASKS = {8: ALL_PATHS, 4: FOUR_PATHS, 3: THREE_PATHS}
@@ -215,6 +217,13 @@ class Workspace:
         return sum(a.nbytes for a in self.arrays())
 
 
+def scratch_allocator(workspace: Workspace | None) -> Callable[[str, tuple[int, ...], Any], np.ndarray]:
+    """``workspace.scratch``, or a fresh ``np.empty`` for every temporary without a workspace."""
+    if workspace is not None:
+        return workspace.scratch
+    return lambda name, shape, dtype: np.empty(shape, dtype)
+
+
 def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 8, lr_check: bool = True,
                  cost: str = "census", block_size: int = 5, threads: int = 2) -> int:
     """Bytes ``sgm_match`` allocates for an image of this size, without the input images.
@@ -258,8 +267,7 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None) -
     w, h = census_window
     census, sobel = cost != "sad", cost != "census"
 
-    def scratch(name, shape, dtype):
-        return workspace.scratch(name, shape, dtype) if workspace is not None else np.empty(shape, dtype)
+    scratch = scratch_allocator(workspace)
 
     views = []
     for side, img in (("left", left), ("right", right)):
@@ -328,7 +336,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     counters = [b[1].counts for b in bufs]  # pixels rejected by uniqueness, by the LR check
     for c in counters:
         c[:] = 0
-    disp = workspace.scratch("disparity", (H, W), np.float32) if scratch_output else np.empty((H, W), np.float32)
+    disp = scratch_allocator(workspace if scratch_output else None)("disparity", (H, W), np.float32)
     dispR = np.empty((H, W), np.float32)  # returned whenever computed (the "full" LR check computes it)
     lr_thr = -1.0 if lr_check is None else float(lr_check)
     if lr_mode not in ("full", "opencv"):

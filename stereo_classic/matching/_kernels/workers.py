@@ -31,6 +31,17 @@ def pool(workers: int = 1) -> ThreadPoolExecutor:
         return _POOL
 
 
+def _on_workers(n_workers: int, work: Callable[[int], None]) -> None:
+    """``work(t)`` for t in 0 .. n_workers - 1: worker 0 on the calling thread, the others on the pool; returns
+    when all are done (raising the first error of a pool worker)."""
+    futures = [pool(n_workers - 1).submit(work, t) for t in range(1, n_workers)]
+    try:
+        work(0)
+    finally:
+        for f in futures:
+            f.result()
+
+
 def run_stripes(bands: list[tuple[int, int]], n_workers: int, stripe: Callable[[int, int, int], Any]) -> list[Any]:
     """Call ``stripe(t, y0, y1)`` for every band (:func:`run_tasks`); the results in band order."""
     return run_tasks(bands, n_workers, lambda t, band: stripe(t, *band))
@@ -57,12 +68,7 @@ def run_tasks(tasks: list[Any], n_workers: int, fn: Callable[[int, Any], Any]) -
             i, task = item
             results[i] = fn(t, task)
 
-    futures = [pool(n_workers - 1).submit(work, t) for t in range(1, n_workers)]
-    try:
-        work(0)
-    finally:
-        for f in futures:
-            f.result()
+    _on_workers(n_workers, work)
     return results
 
 
@@ -94,9 +100,4 @@ def run_chained(n_items: int, n_workers: int, fn: Callable[[int, int, bool], Any
             fn(t, nxt, nxt == prev + 1)
             prev, nxt = nxt, nxt + 1
 
-    futures = [pool(n_workers - 1).submit(work, t) for t in range(1, n_workers)]
-    try:
-        work(0)
-    finally:
-        for f in futures:
-            f.result()
+    _on_workers(n_workers, work)
