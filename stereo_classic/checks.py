@@ -140,7 +140,7 @@ class FrameChecker:
                 num = p.num_disparities if reach else 16 * math.ceil(p.num_disparities / 32)
                 self._matchers[key] = StereoMatcher(p.replace(
                     min_disparity=math.floor(p.min_disparity / 2), num_disparities=num, cost="census", p1=None,
-                    p2=None, lr_check=1.0, lr_mode="full", fill_holes=False,
+                    p2=None, weak_texture_gain=1.0, lr_check=1.0, lr_mode="full", fill_holes=False,
                     threads=p.threads if threads is None else threads))
             return self._matchers[key].compute(_half(left), _half(right))
         except ValueError:  # StereoInputError, MemoryBudgetError: the images are too small for the range

@@ -31,6 +31,7 @@ __all__ = [
     "MAX_BLOCK_SIZE",
     "MAX_NUM_DISPARITIES",
     "MAX_PENALTY",
+    "MAX_TEXTURE_GAIN",
     "default_memory_limit",
     "parse_bytes",
     "parse_census_window",
@@ -51,6 +52,8 @@ MAX_NUM_DISPARITIES = 4096
 #: Largest P1 / P2 accepted before the kernels' own, tighter limit for their int16 sums, which depends on
 #: the cost (e.g. P2 <= 1343 for census 9x7; SAD penalties are scaled with the cost).
 MAX_PENALTY = 32767
+#: Largest ``weak_texture_gain`` (the kernels hold the factor in sixteenths in a uint8).
+MAX_TEXTURE_GAIN = 8.0
 #: Census windows whose bit string fits the 64-bit kernel (width * height - 1 <= 64 bits).
 _MAX_CENSUS_BITS = 64
 
@@ -180,6 +183,13 @@ class SGMParams:
         Census window (width, height), both odd, at most 64 comparison bits. Default (9, 7).
     adaptive_p2 : bool
         Divide P2 by the intensity gradient along each path (Hirschmuller 2008). Default False.
+    weak_texture_gain : float
+        1 .. 8. Where the texture is weak, the matching cost's minimum is mostly noise: a pixel whose 5 x 5 window
+        mean of |Sobel_x| (left image) is below 16 grey levels (an intensity slope of 2 levels per pixel, three
+        times what sensor noise alone gives) gets P1 and P2 multiplied by 16 / that mean, at most by this factor,
+        so that its path neighbours weigh more than its own cost. Textured pixels (and so depth edges, which are
+        textured) keep the penalties as given. 1 = the same penalties everywhere. Default 4 (measured on both
+        dataset families, docs/matching.md "Weak texture": the road of driving scenes gains most).
     uniqueness : float
         Uniqueness ratio in percent, 0 .. 100: the best cost must beat the second best (away
         from the winner's neighbours) by this margin, else the pixel is unknown. 0 = off (default).
@@ -242,6 +252,9 @@ class SGMParams:
         "help": "census window, odd width x odd height, at most 64 bits (cost census)", "metavar": "WxH",
         "parse": parse_census_window})
     adaptive_p2: bool = dataclasses.field(default=False, metadata={"help": "divide P2 by the intensity gradient"})
+    weak_texture_gain: float = dataclasses.field(default=4.0, metadata={
+        "help": "penalties up to this factor larger where the texture is weak (1 = the same everywhere)",
+        "metavar": "FACTOR"})
     uniqueness: float = dataclasses.field(default=0.0, metadata={
         "help": "uniqueness ratio in percent, 0 = off", "metavar": "PCT"})
     lr_check: float | None = dataclasses.field(default=1.0, metadata={
@@ -310,7 +323,10 @@ class SGMParams:
             note = " (None means the default for this cost)" if self.p1 is None or self.p2 is None else ""
             raise ValueError(f"`p2` must be larger than `p1`, got p1={p1} and p2={p2}{note}")
         # the kernels' own, tighter limit on P2: their int16 path sums must not overflow
-        kernels.check_penalties(self.cost, self.block_size, self.census_window, p1, p2)
+        if not _is_real(self.weak_texture_gain) or not 1 <= self.weak_texture_gain <= MAX_TEXTURE_GAIN:
+            fail("weak_texture_gain", f"a number between 1 (off) and {MAX_TEXTURE_GAIN}", self.weak_texture_gain)
+        normalise("weak_texture_gain", float(self.weak_texture_gain))
+        kernels.check_penalties(self.cost, self.block_size, self.census_window, p1, p2, self.weak_texture_gain)
         for field in ("adaptive_p2", "subpixel", "fill_holes", "right_view"):
             value = getattr(self, field)
             if not isinstance(value, bool):

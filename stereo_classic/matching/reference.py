@@ -108,12 +108,14 @@ def _window_sums(left, right, min_disparity, D, block_size, *, intensity) -> np.
     return out
 
 
-def path_reference(C: np.ndarray, direction: int, p1: int, p2: int, image: np.ndarray | None = None) -> np.ndarray:
+def path_reference(C: np.ndarray, direction: int, p1: int, p2: int, image: np.ndarray | None = None,
+                   scale: np.ndarray | None = None) -> np.ndarray:
     """L_r for one direction (index into ``_kernels.core.PATH_STEPS``), int64 (H, W, D).
 
     L(p, d) = C(p, d) + min(L(p-r, d), L(p-r, d-1) + P1, L(p-r, d+1) + P1, min_k L(p-r, k) + P2)
               - min_k L(p-r, k),   and L(p) = C(p) where p - r is outside the image.
-    With ``image`` given, P2 is adaptive: max(P1, P2 // (1 + |I(p) - I(p-r)|)).
+    With ``scale`` ((H, W) sixteenths, ``weak_texture_scale``) the penalties at p are (P * scale(p) + 8) >> 4.
+    With ``image`` given, P2 is adaptive: max(P1, P2 // (1 + |I(p) - I(p-r)|)) (of p's penalties).
     """
     H, W, D = C.shape
     dx, dy = PATH_STEPS[direction]
@@ -129,23 +131,26 @@ def path_reference(C: np.ndarray, direction: int, p1: int, p2: int, image: np.nd
                 continue
             prev = L[yp, xp]
             mp = prev.min()
-            p2e = p2
+            p1e, p2e = p1, p2
+            if scale is not None:
+                p1e, p2e = (p1 * int(scale[y, x]) + 8) >> 4, (p2 * int(scale[y, x]) + 8) >> 4
             if image is not None:
-                p2e = max(p1, p2 // (1 + abs(int(image[y, x]) - int(image[yp, xp]))))
+                p2e = max(p1e, p2e // (1 + abs(int(image[y, x]) - int(image[yp, xp]))))
             best = np.minimum(prev, mp + p2e)
-            lower = np.concatenate([[big], prev[:-1]]) + p1
-            upper = np.concatenate([prev[1:], [big]]) + p1
+            lower = np.concatenate([[big], prev[:-1]]) + p1e
+            upper = np.concatenate([prev[1:], [big]]) + p1e
             best = np.minimum(best, np.minimum(lower, upper))
             L[y, x] = C[y, x] + best - mp
     return L
 
 
-def sum_reference(C: np.ndarray, path_mask: int, p1: int, p2: int, image: np.ndarray | None = None) -> np.ndarray:
+def sum_reference(C: np.ndarray, path_mask: int, p1: int, p2: int, image: np.ndarray | None = None,
+                  scale: np.ndarray | None = None) -> np.ndarray:
     """Sum of path_reference over the directions whose bit is set in path_mask."""
     S = np.zeros(C.shape, np.int64)
     for r in range(8):
         if path_mask >> r & 1:
-            S += path_reference(C, r, p1, p2, image)
+            S += path_reference(C, r, p1, p2, image, scale)
     return S
 
 

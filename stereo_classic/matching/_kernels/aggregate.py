@@ -241,14 +241,23 @@ def grad_mul(block_size: int) -> int:
     return int(round(2**GRAD_SHIFT / (block_size * block_size)))
 
 
-def check_penalties(cost: str, block_size: int, census_window: tuple[int, int], p1: int, p2: int) -> None:
-    """Raise ValueError when the penalties cannot be represented in the int16 sums."""
+def check_penalties(cost: str, block_size: int, census_window: tuple[int, int], p1: int, p2: int,
+                    weak_texture_gain: float = 1.0) -> None:
+    """Raise ValueError when the penalties cannot be represented in the int16 sums (P2 at its largest, times the
+    weak-texture gain)."""
     if not (0 <= p1 <= p2):
         raise ValueError(f"penalties must satisfy 0 <= p1 <= p2, got p1={p1}, p2={p2}")
-    shift, cmax = cost_scale(cost, block_size, census_window, p2)
-    p2s = p2 >> shift
+    from stereo_classic.matching._kernels.cost import max_penalty_scale
+
+    p2_top = (p2 * max_penalty_scale(weak_texture_gain) + 8) >> 4  # the largest P2 at a pixel
+    shift, cmax = cost_scale(cost, block_size, census_window, p2_top)
+    p2s = p2_top >> shift
     if 8 * (cmax + 3 * p2s + 1) > _INT16_MAX:
         limit = (_INT16_MAX // 8 - 1 - cmax) // 3
+        if p2_top > p2:
+            raise ValueError(f"`p2` too large for int16 sums with cost {cost!r} and weak_texture_gain "
+                             f"{weak_texture_gain}: p2 * weak_texture_gain at most {limit}, got {p2} * "
+                             f"{weak_texture_gain}")
         raise ValueError(f"`p2` too large for int16 sums with cost {cost!r}: at most {limit}, got {p2}")
 
 
@@ -363,8 +372,9 @@ def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cove
     mk1 = minus1 if m4 & 2 else zero
     mk2 = minus1 if m4 & 4 else zero
     mk3 = minus1 if m4 & 8 else zero
-    p1_16 = np.int16(p1)
-    p2_16 = np.int16(p2)
+    p1_32 = np.int32(p1)
+    p2_32 = np.int32(p2)
+    pscale = images.penalty_scale
     big = np.int16(_INT16_MAX)
     forward = step > 0
     dst = Sf if keep_sums else Srow
@@ -386,6 +396,10 @@ def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cove
             cb = x * D  # the pixel's costs in crow
             sb = (row * W + x) * D
             db = sb if keep_sums else x * D
+            # the pixel's penalties: P1, P2 times its weak-texture scale (sixteenths, 16 = 1)
+            sx = np.int32(pscale[y, x])
+            p1_16 = np.int16((p1_32 * sx + 8) >> 4)
+            p2_16 = np.int16((p2_32 * sx + 8) >> 4)
             # --- slots: write w, read w + 1 (horizontal: alternate between slots 0 and 1)
             rhs = i & 1
             whs = 1 - rhs

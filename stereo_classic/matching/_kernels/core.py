@@ -44,7 +44,9 @@ from stereo_classic.matching._kernels.cost import (
     RowCostBuffers,
     census_quarters_rows,
     cost_volume_kernel,
+    max_penalty_scale,
     sobel_rows,
+    weak_texture_scale,
 )
 from stereo_classic.matching._kernels.rowpass import (
     RowPassBuffers,
@@ -240,6 +242,7 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     E = D + 2
     workers = max(1, min(int(threads), len(stripes(H))))  # one set of row buffers per worker thread
     total = 2 * 4 * H * W  # left and right disparity
+    total += 17 * H * W  # the penalty factors (uint8) and the int16 / int32 temporaries they are made from
     if kind != SAD:  # census codes, four uint16 quarters per pixel, and the two padded images they are made from
         total += 2 * 8 * H * W + 2 * (H + 20) * (W + 20)
     if kind != CENSUS:  # prefiltered images (gradient; and intensity for SAD)
@@ -260,9 +263,10 @@ def _placeholder(dtype, ndim: int) -> np.ndarray:
     return np.zeros((1,) * ndim, dtype)
 
 
-def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None) -> CostImages:
+def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, weak_texture_gain=1.0) -> CostImages:
     """The cost's input images of both views: census quarters and / or the x-Sobel channel (with the image itself
-    for SAD), made in stripes of rows of both images on ``threads`` workers, into arrays of ``workspace``."""
+    for SAD), made in stripes of rows of both images on ``threads`` workers, into arrays of ``workspace``; and the
+    left image's per-pixel penalty factors (``weak_texture_scale``)."""
     H, W = left.shape
     w, h = census_window
     census, sobel = cost != "sad", cost != "census"
@@ -290,29 +294,33 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None) -
     tasks = [(side, band) for side in (0, 1) for band in stripes(H)]
     run_tasks(tasks, workers_for(threads, len(tasks)), rows)
     (_, lcode, _, lsob, lint), (_, rcode, _, rsob, rint) = views
-    return CostImages(left, lcode, rcode, lsob, lint, rsob, rint)
+    scale = weak_texture_scale(left, weak_texture_gain, scratch("penalty_scale", (H, W), np.uint8))
+    return CostImages(left, lcode, rcode, lsob, lint, rsob, rint, scale)
 
 
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
          path_mask, adaptive_p2, uniqueness, lr_check, subpixel, threads, select=True, keep_sums=False,
-         workspace=None, return_right=False, lr_mode="full", scratch_output=False):
+         workspace=None, return_right=False, lr_mode="full", scratch_output=False, weak_texture_gain=1.0):
     if cost not in _KIND:
         raise ValueError(f"`cost` must be one of {sorted(_KIND)}, got {cost!r}")
-    check_penalties(cost, block_size, census_window, int(p1), int(p2))
+    check_penalties(cost, block_size, census_window, int(p1), int(p2), weak_texture_gain)
     kind = _KIND[cost]
     H, W = left.shape
     D = int(num_disparities)
     dmin = int(min_disparity)
     h = block_size // 2 if kind != CENSUS else 0
-    shift, cmax = cost_scale(cost, block_size, census_window, int(p2))
+    # the SAD cost's scaling and the invalid cost leave room for the largest P2 at a pixel (times the weak-texture
+    # factor): the costs are those of cost_volume(p2=p2_top)
+    p2_top = (int(p2) * max_penalty_scale(weak_texture_gain) + 8) >> 4
+    shift, cmax = cost_scale(cost, block_size, census_window, p2_top)
     p1s, p2s = int(p1) >> shift, int(p2) >> shift
     cost_settings = CostSettings(kind=kind, min_disparity=dmin, half_block=h, shift=shift, cmax=cmax,
-                                 invalid_cost=cmax + 2 * p2s + 1,
+                                 invalid_cost=cmax + 2 * (p2_top >> shift) + 1,
                                  grad_mul=grad_mul(block_size) if cost == "census+grad" else 0)
     timings = {}
 
     t0 = time.perf_counter()
-    images = _prepare_cost(left, right, cost, census_window, threads, workspace)
+    images = _prepare_cost(left, right, cost, census_window, threads, workspace, weak_texture_gain)
     t1 = time.perf_counter()
     timings["cost"] = (t1 - t0) * 1e3
 
@@ -417,7 +425,7 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
               p1: int = 20, p2: int = 80, paths: int = 8, adaptive_p2: bool = False,
               uniqueness: float = 0.0, lr_check: float | None = 1.0, subpixel: bool = True,
               threads: int = 2, workspace: Workspace | None = None, return_right: bool = False,
-              lr_mode: str = "full", scratch_output: bool = False
+              lr_mode: str = "full", scratch_output: bool = False, weak_texture_gain: float = 1.0
               ) -> tuple[np.ndarray, np.ndarray | None, dict[str, float]]:
     """Semi-global matching of a rectified grey pair (inputs already validated by the caller).
 
@@ -432,6 +440,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
     p1, p2 : SGM penalties, 0 <= p1 <= p2.
     paths : 8, 4 (left, right, top, bottom) or 3 (left, right, top: OpenCV MODE_SGBM_3WAY's directions).
     adaptive_p2 : P2 / (1 + |I(p) - I(p - r)|), never below P1.
+    weak_texture_gain : at most this factor on P1 and P2 at pixels of weak texture (``cost.weak_texture_scale``,
+        in sixteenths; 1 = the same penalties everywhere).
     uniqueness : reject when a disparity more than 1 away has sum * (1 - uniqueness) < best sum.
     lr_check : left-right check threshold in pixels; None = off.
     lr_mode : "full" (default): reject when |d - d_right(x - d)| > lr_check, d_right being the
@@ -480,7 +490,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
                                    adaptive_p2=adaptive_p2, uniqueness=uniqueness, lr_check=lr_check,
                                    subpixel=subpixel, threads=threads, workspace=workspace,
                                    return_right=return_right, lr_mode=lr_mode,
-                                   scratch_output=scratch_output and workspace is not None)
+                                   scratch_output=scratch_output and workspace is not None,
+                                   weak_texture_gain=weak_texture_gain)
     return disp, dispR, timings
 
 

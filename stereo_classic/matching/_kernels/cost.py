@@ -54,6 +54,10 @@ __all__ = [
     "sobel_rows",
     "cost_volume_kernel",
     "NoAliasCompiler",
+    "TEXTURE_REFERENCE",
+    "TEXTURE_WINDOW",
+    "max_penalty_scale",
+    "weak_texture_scale",
 ]
 
 SOBEL_CAP = 31
@@ -66,6 +70,14 @@ SAD = 1
 CENSUS_GRAD = 2
 #: The gradient term of CENSUS_GRAD is (window sum * grad_mul) >> GRAD_SHIFT, i.e. the window mean.
 GRAD_SHIFT = 10
+#: Weak texture: a pixel whose TEXTURE_WINDOW x TEXTURE_WINDOW window mean of |Sobel_x| (left image, grey levels)
+#: is below TEXTURE_REFERENCE gets its penalties multiplied by TEXTURE_REFERENCE / that mean, at most by the gain.
+#: 16 is the Sobel_x response of an intensity slope of 2 grey levels per pixel, about three times the mean
+#: |Sobel_x| that pure sensor noise of 2 grey levels gives (2 * sqrt(12) * 0.8 = 5.5; 2 is the median
+#: left-right residual at the true match on both dataset families here): below it the cost's minimum is mostly
+#: noise, and the path's neighbours are the better witnesses. See docs/matching.md, "Weak texture".
+TEXTURE_REFERENCE = 16
+TEXTURE_WINDOW = 5
 
 
 class CostImages(NamedTuple):
@@ -85,6 +97,9 @@ class CostImages(NamedTuple):
     left_sobel, left_intensity, right_sobel, right_intensity : (H, W) int16
         The SAD channels of ``sad_prefilter``; (1, 1) placeholders for census (and the intensities for
         census+grad, which has no intensity term).
+    penalty_scale : (H, W) uint8
+        Per pixel, the factor of P1 and P2 in sixteenths (16 = 1), ``weak_texture_scale``: the aggregation
+        uses ``(P * scale + 8) >> 4`` at the pixel.
     """
 
     left: np.ndarray
@@ -94,6 +109,7 @@ class CostImages(NamedTuple):
     left_intensity: np.ndarray
     right_sobel: np.ndarray
     right_intensity: np.ndarray
+    penalty_scale: np.ndarray
 
 
 class CostSettings(NamedTuple):
@@ -452,3 +468,31 @@ def cost_volume_kernel(images, cost, bufs, out):  # pragma: no cover - numba
     for y in range(H):
         row_cost(images, cost, y, y == 0, 1, bufs, crow)
         out[y] = crow.reshape(W, D)
+
+
+def max_penalty_scale(gain: float) -> int:
+    """The largest ``weak_texture_scale`` value (sixteenths) for ``gain``: ``round(16 * gain)``, at least 16."""
+    return max(16, int(round(16 * float(gain))))
+
+
+def weak_texture_scale(left: np.ndarray, gain: float, out: np.ndarray | None = None) -> np.ndarray:
+    """(H, W) uint8 penalty factors in sixteenths: ``clip(16 * TEXTURE_REFERENCE / t, 16, max_penalty_scale(gain))``,
+    ``t`` the TEXTURE_WINDOW x TEXTURE_WINDOW window mean of ``|Sobel_x(left)|`` (borders replicated), in integer
+    arithmetic (the same numbers on every machine and thread count); all 16 when ``gain`` <= 1."""
+    import cv2
+
+    if out is None:
+        out = np.empty(left.shape, np.uint8)
+    top = max_penalty_scale(gain)
+    if top <= 16:
+        out[...] = 16
+        return out
+    grad = np.abs(cv2.Sobel(left, cv2.CV_16S, 1, 0, ksize=3, borderType=cv2.BORDER_REPLICATE)).astype(np.uint16)
+    sums = cv2.boxFilter(grad, cv2.CV_32S, (TEXTURE_WINDOW, TEXTURE_WINDOW), normalize=False,
+                         borderType=cv2.BORDER_REPLICATE)
+    # 16 * REF / (sums / n), rounded: (32 * REF * n + sums) // (2 * sums); a flat window (sums 0) gets the top
+    num = 32 * TEXTURE_REFERENCE * TEXTURE_WINDOW * TEXTURE_WINDOW
+    scale = (num + sums) // np.maximum(2 * sums, 1)
+    np.clip(scale, 16, top, out=scale)
+    out[...] = scale
+    return out

@@ -162,8 +162,9 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     """
     limg = images.left
     W = limg.shape[1]
-    p1 = np.int16(settings.p1)
-    p2 = np.int16(settings.p2)
+    p1_32 = np.int32(settings.p1)
+    p2_32 = np.int32(settings.p2)
+    pscale = images.penalty_scale
     adaptive = settings.adaptive_p2
     dmin = cost.min_disparity
     srow = bufs.srow
@@ -200,6 +201,9 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
         MH[0] = zero
         for x in range(W):
             cb = x * D
+            sx = np.int32(pscale[y, x])  # the pixel's penalties: times its weak-texture scale (sixteenths)
+            p1 = np.int16((p1_32 * sx + 8) >> 4)
+            p2 = np.int16((p2_32 * sx + 8) >> 4)
             wvs = x - r + n_rows
             wv = wvs * E
             rvb = wv + E
@@ -239,6 +243,9 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
         for i in range(W):
             x = W - 1 - i
             cb = x * D
+            sx = np.int32(pscale[y, x])
+            p1 = np.int16((p1_32 * sx + 8) >> 4)
+            p2 = np.int16((p2_32 * sx + 8) >> 4)
             rhs = i & 1
             whs = 1 - rhs
             mh = MH[rhs]

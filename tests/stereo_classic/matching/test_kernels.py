@@ -142,6 +142,69 @@ def test_default_cost_and_paths_match_reference(threads):
     np.testing.assert_array_equal(got, want)
 
 
+def _weak_texture_pair(seed: int, h: int = 12, w: int = 30, shift: int = 3):
+    """A pair whose left half is nearly flat (grey 100 +- 1: weak texture, raised penalties) and whose right half is
+    random (strong texture, penalties as given), with a slow ramp in between."""
+    rng = np.random.default_rng(seed)
+    left = rng.integers(0, 256, (h, w)).astype(np.int64)
+    left[:, : w // 2] = 100 + rng.integers(-1, 2, (h, w // 2))
+    left[:, w // 2 - 4: w // 2] = 100 + 3 * np.arange(4)[None, :] + rng.integers(0, 2, (h, 4))
+    right = np.roll(left, -shift, axis=1)
+    right[:, w - shift:] = rng.integers(0, 256, (h, shift))
+    right = np.clip(right + rng.integers(-2, 3, right.shape), 0, 255)
+    return np.ascontiguousarray(left.astype(np.uint8)), np.ascontiguousarray(right.astype(np.uint8))
+
+
+def test_weak_texture_scale_is_the_documented_integer_formula():
+    from stereo_classic.matching._kernels.cost import TEXTURE_REFERENCE, TEXTURE_WINDOW, weak_texture_scale
+
+    left, _ = _weak_texture_pair(3, h=20, w=40)
+    got = weak_texture_scale(left, 4.0)
+    img = np.pad(left.astype(np.int64), 1, mode="edge")
+    sobel = np.abs((img[:-2, 2:] - img[:-2, :-2]) + 2 * (img[1:-1, 2:] - img[1:-1, :-2]) + (img[2:, 2:] - img[2:, :-2]))
+    r = TEXTURE_WINDOW // 2
+    padded = np.pad(sobel, r, mode="edge")
+    sums = sum(padded[dy:dy + 20, dx:dx + 40] for dy in range(TEXTURE_WINDOW) for dx in range(TEXTURE_WINDOW))
+    mean = sums / TEXTURE_WINDOW**2
+    with np.errstate(divide="ignore"):
+        want = np.clip(np.floor(16 * TEXTURE_REFERENCE / mean + 0.5), 16, 64)
+    np.testing.assert_array_equal(got, want)
+    assert got.dtype == np.uint8 and got[:, :10].min() == 64 and got[:, -10:].max() == 16  # flat: x4; random: x1
+    assert (weak_texture_scale(left, 1.0) == 16).all()  # gain 1: the penalties as given everywhere
+    assert weak_texture_scale(np.full((8, 9), 7, np.uint8), 2.5).tolist() == [[40] * 9] * 8  # flat: the gain
+
+
+@pytest.mark.parametrize("cost, paths, adaptive", [("census+grad", 3, False), ("census+grad", 8, False),
+                                                    ("sad", 3, True), ("census", 4, True), ("sad", 8, False)])
+@pytest.mark.parametrize("threads", [1, 2])
+def test_weak_texture_penalties_match_reference(cost, paths, adaptive, threads):
+    """Both kernels (one sweep for 3 paths, two passes for 4 and 8) with per-pixel penalties: P1 and P2 times the
+    pixel's weak-texture factor, against the reference given the same factors; the SAD cost's scaling leaves room
+    for the largest P2."""
+    from stereo_classic.matching._kernels.cost import weak_texture_scale
+
+    left, right = _weak_texture_pair(41)
+    scale = weak_texture_scale(left, 4.0)
+    assert scale.min() == 16 and scale.max() == 64
+    p1, p2 = (28, 112) if cost != "sad" else (200, 800)
+    kw = dict(cost=cost, min_disparity=-1, num_disparities=9, block_size=5, census_window=(9, 7))
+    shift, _ = core.cost_scale(cost, 5, (9, 7), (p2 * 64 + 8) >> 4)
+    C = ref.cost_volume_reference(left, right, p2=(p2 * 64 + 8) >> 4, **kw)
+    mask = core.PATH_MASKS[paths]
+    want = ref.sum_reference(C, mask, p1 >> shift, p2 >> shift, image=left if adaptive else None, scale=scale)
+    got = core.sum_volume(left, right, path_mask=mask, threads=threads, p1=p1, p2=p2, adaptive_p2=adaptive,
+                          weak_texture_gain=4.0, **kw)
+    np.testing.assert_array_equal(got, want)
+    plain = ref.sum_reference(C, mask, p1 >> shift, p2 >> shift, image=left if adaptive else None)
+    assert not np.array_equal(got, plain)  # the factors changed the sums
+
+
+def test_weak_texture_gain_is_bounded_by_the_int16_sums():
+    core.check_penalties("census", 5, (9, 7), 100, 336, 4.0)  # 336 * 4 = 1344: the largest census P2 at a pixel
+    with pytest.raises(ValueError, match="weak_texture_gain"):
+        core.check_penalties("census", 5, (9, 7), 100, 337, 4.0)
+
+
 def test_sums_stay_inside_int16_at_the_largest_p2():
     # worst case for the bounds: no texture on one side, maximum-cost noise on the other, largest p2
     rng = np.random.default_rng(5)

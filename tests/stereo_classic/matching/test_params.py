@@ -61,6 +61,8 @@ class TestParams:
         ("cost", "ssd"), ("cost", None),
         ("census_window", (9, 9)), ("census_window", (8, 7)), ("census_window", 9), ("census_window", (9, 7, 1)),
         ("adaptive_p2", 1), ("subpixel", "yes"), ("fill_holes", None),
+        ("weak_texture_gain", 0.5), ("weak_texture_gain", 9), ("weak_texture_gain", "2"),
+        ("weak_texture_gain", float("nan")), ("weak_texture_gain", None),
         ("uniqueness", -1), ("uniqueness", 101), ("uniqueness", float("nan")),
         ("lr_check", -1), ("lr_check", float("inf")), ("lr_check", "1"), ("lr_mode", "strict"), ("lr_mode", None),
         ("right_view", 1),
@@ -71,6 +73,13 @@ class TestParams:
     def test_bad_field_names_field(self, field, value):
         with pytest.raises(ValueError, match=f"`{field}`"):
             SGMParams(**{field: value})
+
+    def test_weak_texture_gain_bounds_p2(self):
+        assert SGMParams(weak_texture_gain=1).weak_texture_gain == 1.0  # off; normalised to float
+        SGMParams(cost="census", p2=336)  # 336 * 4 at a weak-texture pixel: the int16 sums' limit
+        with pytest.raises(ValueError, match="weak_texture_gain"):
+            SGMParams(cost="census", p2=337)
+        assert SGMParams(cost="census", p2=1343, weak_texture_gain=1).p2 == 1343  # without the factor
 
     @pytest.mark.parametrize("kwargs", [dict(p1=80, p2=80), dict(p1=120), dict(cost="sad", p2=10)])
     def test_p2_must_exceed_p1(self, kwargs):
@@ -104,7 +113,7 @@ class TestParams:
 # --------------------------------------------------------------------------------------------------
 _FLAG_FIELDS = {"min_disparity", "num_disparities", "cost", "block_size", "census_window", "p1", "p2", "uniqueness",
                 "lr_check", "lr_mode", "speckle_size", "speckle_range", "paths", "adaptive_p2", "subpixel",
-                "fill_holes", "border_reach"}
+                "fill_holes", "border_reach", "weak_texture_gain"}
 
 
 class TestCliMetadata:
