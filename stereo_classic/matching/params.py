@@ -217,7 +217,8 @@ class SGMParams:
         (their true match is likely out of reach: a winner at d ~ 0 reads as "far away"). With
         ``fill_holes`` they are then filled from the background next to them (marked as filled). 0 keeps
         every pixel with at least one candidate. Default 0.5 (measured on the shared scenes, dense bad-2,
-        Middlebury-style / driving: keep all 6.8 / 18.6, 0.5 6.5 / 15.9, 1.0 8.2 / 16.8).
+        Middlebury-style / driving, with the same penalties everywhere: keep all 6.8 / 18.6, 0.5 6.5 / 15.9, 1.0
+        8.2 / 16.8; with the weak-texture penalties: keep all 7.9 / 11.8, 0.5 6.7 / 8.0).
     fill_holes : bool
         Fill unknown pixels from the background side of each row, then a 3x3 median
         (dense output, not a measurement: ``DisparityMap.filled`` marks them and distances use only

@@ -475,10 +475,23 @@ def max_penalty_scale(gain: float) -> int:
     return max(16, int(round(16 * float(gain))))
 
 
+def _scale_table(top: int) -> np.ndarray:
+    """``weak_texture_scale``'s value for each window sum 0 .. TEXTURE_REFERENCE * n (above: 16), uint8."""
+    n = TEXTURE_WINDOW * TEXTURE_WINDOW
+    sums = np.arange(TEXTURE_REFERENCE * n + 1, dtype=np.int64)
+    # 16 * REF / (sums / n), rounded half up: (32 * REF * n + sums) // (2 * sums); a flat window (sums 0) gets the top
+    table = (32 * TEXTURE_REFERENCE * n + sums) // np.maximum(2 * sums, 1)
+    return np.clip(table, 16, top).astype(np.uint8)
+
+
+_SCALE_TABLES: dict[int, np.ndarray] = {}
+
+
 def weak_texture_scale(left: np.ndarray, gain: float, out: np.ndarray | None = None) -> np.ndarray:
-    """(H, W) uint8 penalty factors in sixteenths: ``clip(16 * TEXTURE_REFERENCE / t, 16, max_penalty_scale(gain))``,
-    ``t`` the TEXTURE_WINDOW x TEXTURE_WINDOW window mean of ``|Sobel_x(left)|`` (borders replicated), in integer
-    arithmetic (the same numbers on every machine and thread count); all 16 when ``gain`` <= 1."""
+    """(H, W) uint8 penalty factors in sixteenths: ``clip(16 * TEXTURE_REFERENCE / t, 16, max_penalty_scale(gain))``
+    rounded half up, ``t`` the TEXTURE_WINDOW x TEXTURE_WINDOW window mean of ``|Sobel_x(left)|`` (borders
+    replicated), in integer arithmetic through a table (the same numbers on every machine and thread count); all 16
+    when ``gain`` <= 1."""
     import cv2
 
     if out is None:
@@ -487,12 +500,12 @@ def weak_texture_scale(left: np.ndarray, gain: float, out: np.ndarray | None = N
     if top <= 16:
         out[...] = 16
         return out
+    table = _SCALE_TABLES.get(top)
+    if table is None:
+        table = _SCALE_TABLES[top] = _scale_table(top)
     grad = np.abs(cv2.Sobel(left, cv2.CV_16S, 1, 0, ksize=3, borderType=cv2.BORDER_REPLICATE)).astype(np.uint16)
     sums = cv2.boxFilter(grad, cv2.CV_32S, (TEXTURE_WINDOW, TEXTURE_WINDOW), normalize=False,
                          borderType=cv2.BORDER_REPLICATE)
-    # 16 * REF / (sums / n), rounded: (32 * REF * n + sums) // (2 * sums); a flat window (sums 0) gets the top
-    num = 32 * TEXTURE_REFERENCE * TEXTURE_WINDOW * TEXTURE_WINDOW
-    scale = (num + sums) // np.maximum(2 * sums, 1)
-    np.clip(scale, 16, top, out=scale)
-    out[...] = scale
+    np.minimum(sums, table.size - 1, out=sums)  # every larger sum is textured: 16
+    np.take(table, sums, out=out)
     return out
