@@ -50,7 +50,8 @@ MAX_BLOCK_SIZE = 21
 #: Largest accepted disparity range; far above any real camera and image, it only keeps the int16 kernels safe.
 MAX_NUM_DISPARITIES = 4096
 #: Largest P1 / P2 accepted before the kernels' own, tighter limit for their int16 sums, which depends on
-#: the cost (e.g. P2 <= 1343 for census 9x7; SAD penalties are scaled with the cost).
+#: the cost and the weak-texture gain (e.g. P2 * gain <= 1344 for census 9x7, 1323 for census+grad; SAD penalties
+#: are scaled with the cost).
 MAX_PENALTY = 32767
 #: Largest ``weak_texture_gain`` (the kernels hold the factor in sixteenths in a uint8).
 MAX_TEXTURE_GAIN = 8.0
@@ -170,8 +171,8 @@ class SGMParams:
         census+grad 28 / 112 (census's plus OpenCV's 8 / 32 per pixel for the gradient mean);
         SAD ``8 * block_size**2`` / ``32 * block_size**2`` (OpenCV's rule with one channel).
         Units are those of the cost: Hamming bits for census, raw window SAD for "sad" (the kernels
-        scale SAD and the penalties together). P2 is limited by the int16 path sums (census 9x7:
-        at most 1343). See ``effective_p1`` / ``effective_p2``.
+        scale SAD and the penalties together). P2 times ``weak_texture_gain`` is limited by the int16 path
+        sums (census 9x7: at most 1344; census+grad 1323). See ``effective_p1`` / ``effective_p2``.
     cost : {"census+grad", "census", "sad"}
         Matching cost. "census+grad" (default): census Hamming distance plus the window mean of the
         absolute x-gradient difference: census is robust to exposure differences and fine structure,
