@@ -46,7 +46,7 @@ def measure(data: Path, frames: int = 5, model: str | None = "yolox_nano", save:
             g = first.ground
             seeded = []
             if seeds:
-                disparity = result.disparity.disparity
+                disparity = result.disparity.measured_disparity  # as Guide samples a frame: measured pixels only
                 h, w = disparity.shape
                 stride = max(2, round(math.sqrt(h * w / 12000.0)))        # as Guide samples a frame
                 pts = sample_points(disparity, rig, stride=stride, max_depth=max(2.5 * guide.params.look_ahead, 10.0),

@@ -108,6 +108,29 @@ def test_head_height_bar_and_detected_object():
     assert chair_track.distance_m == pytest.approx(math.hypot(0.75, 2.1), rel=0.15)
 
 
+def test_filled_pixels_make_no_obstacle_and_no_ground():
+    """A hole the matcher filled (``DisparityMap.filled``) holds a guess: on the floor ahead a filled patch at the
+    disparity of something 1.2 m away must not become an obstacle; the same values measured do."""
+    from stereo_classic.matching import DisparityMap, SGMParams
+
+    left, _, depth, rig = ws.still([])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        floor_d = (rig.focal_px * rig.baseline_m / depth).astype(np.float32)
+    patch = np.zeros(floor_d.shape, bool)
+    patch[150:190, 130:190] = True                                  # the floor 2-3 m ahead, in the corridor
+    near = np.float32(rig.focal_px * rig.baseline_m / 1.2)
+    disp = np.where(patch, near, floor_d).astype(np.float32)
+
+    def frame(filled):
+        dmap = DisparityMap(disp, None, SGMParams(), filled=filled)
+        return Guide().update(SimpleNamespace(disparity=dmap, objects=None, left=left), rig, 0.0)
+
+    measured = frame(None)
+    assert measured.ground is not None and measured.obstacles      # measured: it stands above the floor
+    guessed = frame(patch)
+    assert guessed.ground.height_m == pytest.approx(1.2, abs=0.05) and guessed.obstacles == []
+
+
 def test_bad_input():
     rig = make_rig(64, 48)
     result = SimpleNamespace(disparity=SimpleNamespace(disparity=np.full((48, 64), np.nan, np.float32)), objects=None)
