@@ -242,15 +242,16 @@ class FrameChecker:
     def range_warning(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap) -> FrameWarning | None:
         """The range warning of a disparity map without a rig or objects (the ``disparity`` command), or None."""
         top = float(dmap.params.max_disparity)
-        share = range_saturation(dmap.disparity, top)
+        disp = dmap.measured_disparity  # as check_range: filled pixels neither saturate nor count as known
+        share = range_saturation(disp, top)
         if share < SATURATION_WARN:
             return None
         probe = self._half_match(left, right, reach=True)
         needed = None
         if probe is not None:
-            h, w = dmap.disparity.shape
+            h, w = disp.shape
             wide = cv2.resize(probe.disparity * np.float32(2.0), (w, h), interpolation=cv2.INTER_NEAREST)
-            needed = _needed(dmap.disparity, wide, top)
+            needed = _needed(disp, wide, top)
         return FrameWarning("range_saturated", _range_message(share, top, None, needed, 0, dmap.params.min_disparity))
 
 

@@ -38,6 +38,22 @@ def test_range_saturation_counts_known_pixels_within_one_px_of_the_end():
     assert range_saturation(np.full((2, 2), np.nan), 63) == 0.0
 
 
+def test_range_warning_reads_the_measured_pixels_only(near_scene):
+    """The ``disparity`` command's range warning: pixels at the end of the range that were filled are guesses
+    and do not saturate; measured, the same values do."""
+    left, right, _ = near_scene
+    d = np.full((200, 320), 10.0, np.float32)
+    d[60:140, 100:200] = 47.0                                        # 12.5 % of the pixels at the end of 0..47
+    checker = FrameChecker(SGMParams(num_disparities=48))
+    try:
+        measured = DisparityMap(d, None, SGMParams(num_disparities=48))
+        filled = DisparityMap(d, None, SGMParams(num_disparities=48), filled=d >= 47.0)
+        assert checker.range_warning(left, right, measured).code == "range_saturated"
+        assert checker.range_warning(left, right, filled) is None
+    finally:
+        checker.close()
+
+
 def test_object_beyond_the_range_is_marked_and_the_frame_says_which_range_fits(near_scene):
     left, right, rig = near_scene
     # no hole filling: the box's pixels that match nothing are what makes it suspect here (no pile-up)
