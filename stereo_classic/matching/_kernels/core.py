@@ -283,18 +283,23 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
             # no intensity term but for SAD: the kernels read no intensity image then
             img.astype(np.int16) if cost == "sad" else _placeholder(np.int16, 2)))
 
+    scale = scratch("penalty_scale", (H, W), np.uint8)
+
     def rows(t: int, task) -> None:
-        side, (y0, y1) = task
+        side, band = task
+        if band is None:  # the penalty factors: one task of their own, taken first, beside the stripes
+            weak_texture_scale(left, weak_texture_gain, scale)
+            return
+        y0, y1 = band
         padded_c, code, padded_s, sob, _ = views[side]
         if census:
             census_quarters_rows(padded_c, w // 2, h // 2, y0, y1, code)
         if sobel:
             sobel_rows(padded_s, y0, y1, sob)
 
-    tasks = [(side, band) for side in (0, 1) for band in stripes(H)]
+    tasks = [(0, None)] + [(side, band) for side in (0, 1) for band in stripes(H)]
     run_tasks(tasks, workers_for(threads, len(tasks)), rows)
     (_, lcode, _, lsob, lint), (_, rcode, _, rsob, rint) = views
-    scale = weak_texture_scale(left, weak_texture_gain, scratch("penalty_scale", (H, W), np.uint8))
     return CostImages(left, lcode, rcode, lsob, lint, rsob, rint, scale)
 
 
