@@ -108,7 +108,7 @@ def test_head_height_bar_and_detected_object():
     assert chair_track.distance_m == pytest.approx(math.hypot(0.75, 2.1), rel=0.15)
 
 
-def test_filled_pixels_make_no_obstacle_and_no_ground():
+def test_filled_pixels_make_no_obstacle():
     """A hole the matcher filled (``DisparityMap.filled``) holds a guess: on the floor ahead a filled patch at the
     disparity of something 1.2 m away must not become an obstacle; the same values measured do."""
     from stereo_classic.matching import DisparityMap, SGMParams
