@@ -49,6 +49,8 @@ from stereo_classic.matching._kernels.cost import (
     SAD_PIXEL_MAX,
     NoAliasCompiler,
     census_bits,
+    largest_p2,
+    pixel_penalties,
     row_cost,
 )
 from stereo_classic.matching._kernels.intrinsics import (
@@ -247,9 +249,7 @@ def check_penalties(cost: str, block_size: int, census_window: tuple[int, int], 
     weak-texture gain)."""
     if not (0 <= p1 <= p2):
         raise ValueError(f"penalties must satisfy 0 <= p1 <= p2, got p1={p1}, p2={p2}")
-    from stereo_classic.matching._kernels.cost import max_penalty_scale
-
-    p2_top = (p2 * max_penalty_scale(weak_texture_gain) + 8) >> 4  # the largest P2 at a pixel
+    p2_top = largest_p2(p2, weak_texture_gain)
     shift, cmax = cost_scale(cost, block_size, census_window, p2_top)
     p2s = p2_top >> shift
     if 8 * (cmax + 3 * p2s + 1) > _INT16_MAX:
@@ -396,10 +396,7 @@ def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cove
             cb = x * D  # the pixel's costs in crow
             sb = (row * W + x) * D
             db = sb if keep_sums else x * D
-            # the pixel's penalties: P1, P2 times its weak-texture scale (sixteenths, 16 = 1)
-            sx = np.int32(pscale[y, x])
-            p1_16 = np.int16((p1_32 * sx + 8) >> 4)
-            p2_16 = np.int16((p2_32 * sx + 8) >> 4)
+            p1_16, p2_16 = pixel_penalties(p1_32, p2_32, pscale[y, x])  # times its weak-texture factor
             # --- slots: write w, read w + 1 (horizontal: alternate between slots 0 and 1)
             rhs = i & 1
             whs = 1 - rhs

@@ -44,7 +44,7 @@ from stereo_classic.matching._kernels.cost import (
     RowCostBuffers,
     census_quarters_rows,
     cost_volume_kernel,
-    max_penalty_scale,
+    largest_p2,
     sobel_rows,
     weak_texture_scale,
 )
@@ -316,7 +316,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     h = block_size // 2 if kind != CENSUS else 0
     # the SAD cost's scaling and the invalid cost leave room for the largest P2 at a pixel (times the weak-texture
     # factor): the costs are those of cost_volume(p2=p2_top)
-    p2_top = (int(p2) * max_penalty_scale(weak_texture_gain) + 8) >> 4
+    p2_top = largest_p2(p2, weak_texture_gain)
     shift, cmax = cost_scale(cost, block_size, census_window, p2_top)
     p1s, p2s = int(p1) >> shift, int(p2) >> shift
     cost_settings = CostSettings(kind=kind, min_disparity=dmin, half_block=h, shift=shift, cmax=cmax,

@@ -56,7 +56,9 @@ __all__ = [
     "NoAliasCompiler",
     "TEXTURE_REFERENCE",
     "TEXTURE_WINDOW",
+    "largest_p2",
     "max_penalty_scale",
+    "pixel_penalties",
     "weak_texture_scale",
 ]
 
@@ -473,6 +475,18 @@ def cost_volume_kernel(images, cost, bufs, out):  # pragma: no cover - numba
 def max_penalty_scale(gain: float) -> int:
     """The largest ``weak_texture_scale`` value (sixteenths) for ``gain``: ``round(16 * gain)``, at least 16."""
     return max(16, int(round(16 * float(gain))))
+
+
+def largest_p2(p2: int, gain: float) -> int:
+    """The largest P2 any pixel gets for ``gain``: what the int16 bound and the cost scaling must leave room for."""
+    return (int(p2) * max_penalty_scale(gain) + 8) >> 4
+
+
+@njit(cache=True, nogil=True, inline="always")
+def pixel_penalties(p1, p2, scale):  # pragma: no cover - numba
+    """(P1, P2) of a pixel as int16: the int32 penalties times its ``weak_texture_scale`` (sixteenths), rounded."""
+    s = np.int32(scale)
+    return np.int16((p1 * s + 8) >> 4), np.int16((p2 * s + 8) >> 4)
 
 
 def _scale_table(top: int) -> np.ndarray:

@@ -25,7 +25,11 @@ import numpy as np
 from numba import njit
 
 from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr, _p2_at
-from stereo_classic.matching._kernels.cost import NoAliasCompiler, row_cost
+from stereo_classic.matching._kernels.cost import (
+    NoAliasCompiler,
+    pixel_penalties,
+    row_cost,
+)
 from stereo_classic.matching._kernels.intrinsics import add16, min16
 from stereo_classic.matching._kernels.select import right_view_row, select_row
 
@@ -201,9 +205,7 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
         MH[0] = zero
         for x in range(W):
             cb = x * D
-            sx = np.int32(pscale[y, x])  # the pixel's penalties: times its weak-texture scale (sixteenths)
-            p1 = np.int16((p1_32 * sx + 8) >> 4)
-            p2 = np.int16((p2_32 * sx + 8) >> 4)
+            p1, p2 = pixel_penalties(p1_32, p2_32, pscale[y, x])  # times the pixel's weak-texture factor
             wvs = x - r + n_rows
             wv = wvs * E
             rvb = wv + E
@@ -243,9 +245,7 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
         for i in range(W):
             x = W - 1 - i
             cb = x * D
-            sx = np.int32(pscale[y, x])
-            p1 = np.int16((p1_32 * sx + 8) >> 4)
-            p2 = np.int16((p2_32 * sx + 8) >> 4)
+            p1, p2 = pixel_penalties(p1_32, p2_32, pscale[y, x])
             rhs = i & 1
             whs = 1 - rhs
             mh = MH[rhs]
