@@ -194,7 +194,8 @@ def thread_scaling(left: np.ndarray, right: np.ndarray, *, num_disparities: int 
     dict
         ``cores``, ``threads``, ``rows`` (per method and thread count: ``median_ms``, ``min_ms``, ``max_ms``,
         ``speedup`` = ms at 1 thread / ms, ``efficiency`` = speedup / min(threads, cores), ``cpu_s_per_call``,
-        ``speedup_best`` = fastest call at 1 thread / fastest call, ``cpu_ratio`` = CPU s per call / that at 1 thread, ``identical`` = output bit-identical (NaN equal) to the
+        ``speedup_best`` = fastest call at 1 thread / fastest call, ``cpu_ratio`` = CPU s per call / that at 1
+        thread, ``identical`` = output bit-identical (NaN equal) to the
         1-thread output, ``first_call_ms``), the input's size and ``how``.
     """
     from benchmarks.methods import Setup, default_methods, output_views
