@@ -24,7 +24,14 @@ import numpy as np
 
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching.params import SGMParams
-from stereo_classic.matching.postprocess import _fill_holes_counted, _filter_speckles_counted, fill_bytes, speckle_bytes
+from stereo_classic.matching.postprocess import (
+    _fill_holes_counted,
+    _filter_speckles_counted,
+    _speckle_fill_counted,
+    fill_bytes,
+    speckle_bytes,
+    speckle_fill_bytes,
+)
 
 __all__ = [
     "compute_disparity",
@@ -365,9 +372,12 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
                                 lr_check=params.lr_check is not None, cost=params.cost,
                                 block_size=params.block_size, threads=params.effective_threads)
     conversion = _conversion_bytes((height, width), dtype)
-    post = 4 * pixels + speckle_bytes(height, width)  # the border columns' copy, the speckle filter
-    if params.fill_holes:
-        post += fill_bytes(height, width)
+    post = 4 * pixels  # the border columns' copy
+    if params.speckle_size > 0 and params.fill_holes:
+        post += speckle_fill_bytes(height, width)  # run together
+    else:
+        post += speckle_bytes(height, width) if params.speckle_size > 0 else 0
+        post += fill_bytes(height, width) if params.fill_holes else 0
     return int(core + conversion + post)
 
 
@@ -459,17 +469,22 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         disparity[:, short] = np.nan
     valid_before = disparity.size - unknown_matcher - short_range
     threads = params.effective_threads
-    if params.speckle_size > 0:
-        disparity, valid_after_speckle = _filter_speckles_counted(
-            disparity, max_size=params.speckle_size, max_diff=params.speckle_range, threads=threads,
-            workspace=workspace, scratch_output=params.fill_holes)
-    else:
-        valid_after_speckle = int(np.count_nonzero(np.isfinite(disparity)))
     filled = 0
     filled_mask = None
-    if params.fill_holes:
-        disparity, filled_mask, filled = _fill_holes_counted(disparity, threads=threads, n_valid=valid_after_speckle,
-                                                             workspace=workspace)
+    if params.speckle_size > 0 and params.fill_holes:  # both in one pass after the speckle filter's labelling
+        disparity, filled_mask, valid_after_speckle, filled = _speckle_fill_counted(
+            disparity, max_size=params.speckle_size, max_diff=params.speckle_range, threads=threads,
+            workspace=workspace)
+    else:
+        if params.speckle_size > 0:
+            disparity, valid_after_speckle = _filter_speckles_counted(
+                disparity, max_size=params.speckle_size, max_diff=params.speckle_range, threads=threads,
+                workspace=workspace)
+        else:
+            valid_after_speckle = int(np.count_nonzero(np.isfinite(disparity)))
+        if params.fill_holes:
+            disparity, filled_mask, filled = _fill_holes_counted(disparity, threads=threads,
+                                                                 n_valid=valid_after_speckle, workspace=workspace)
     border = reach < params.num_disparities  # the full range does not fit: matched with the range that does
     t3 = time.perf_counter()
 

@@ -63,11 +63,7 @@ def filter_speckles(disparity: np.ndarray, *, max_size: int, max_diff: float, th
     return _filter_speckles_counted(disparity, max_size=max_size, max_diff=max_diff, threads=threads)[0]
 
 
-def _filter_speckles_counted(disparity: np.ndarray, *, max_size: int, max_diff: float, threads: int = 1,
-                             workspace: Workspace | None = None, scratch_output: bool = False) -> tuple[np.ndarray, int]:
-    """``filter_speckles``, and how many pixels of its result are known. ``workspace`` keeps the temporaries
-    between calls; with ``scratch_output`` the result is one of them too (for a caller that makes a new map
-    of it)."""
+def _check_speckle_args(disparity: np.ndarray, max_size: int, max_diff: float, threads: int) -> np.ndarray:
     disp = _check_disparity(disparity)
     if isinstance(max_size, bool) or not isinstance(max_size, (int, np.integer)) or max_size < 0:
         raise ValueError(f"`max_size` must be a non-negative integer, got {max_size!r}")
@@ -78,16 +74,17 @@ def _filter_speckles_counted(disparity: np.ndarray, *, max_size: int, max_diff: 
     if disp.size >= _MAX_LABELS:
         raise ValueError(f"`disparity` has {disp.size} pixels; the speckle filter labels at most {_MAX_LABELS - 1} "
                          "(int32 region labels): filter it in parts")
-    disp = np.ascontiguousarray(disp)
-    lo, hi, n_valid = _finite_range(disp)
-    if max_size == 0 or n_valid == 0:
-        return disp.copy(), n_valid
+    return np.ascontiguousarray(disp)
+
+
+def _label_regions(disp: np.ndarray, lo: float, hi: float, max_diff: float, n_workers: int, empty
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The speckle filter's regions of ``disp`` (finite values in [lo, hi]): labels, union-find parents and
+    sizes, labelled stripe by stripe on ``n_workers`` workers and joined across the stripes' borders."""
     bands = _kernels.stripes(disp.shape[0])
-    n_workers = _kernels.workers_for(threads, len(bands))
     magnitude = max(abs(float(lo)), abs(float(hi)))
     scale = np.float32(16.0 if magnitude * 16.0 <= _I16_LIMIT else _I16_LIMIT / magnitude)
     max_diff_scaled = int(round(max_diff * float(scale)))
-    empty = _kernels.scratch_allocator(workspace)
     scaled = empty("speckle_scaled", disp.shape, np.int16)
     labels = empty("speckle_labels", disp.shape, np.int32)
     parent = empty("speckle_parent", (disp.size,), np.int32)
@@ -96,10 +93,51 @@ def _filter_speckles_counted(disparity: np.ndarray, *, max_size: int, max_diff: 
         disp, scale, max_diff_scaled, y0, y1, scaled, labels, parent, sizes))
     _speckle.join_stripes(np.array([y0 for y0, _ in bands[1:]], np.int64), max_diff_scaled, scaled, labels,
                           parent, sizes)
-    out = empty("speckle_out", disp.shape, np.float32) if scratch_output else np.empty_like(disp)
+    return labels, parent, sizes
+
+
+def _filter_speckles_counted(disparity: np.ndarray, *, max_size: int, max_diff: float, threads: int = 1,
+                             workspace: Workspace | None = None) -> tuple[np.ndarray, int]:
+    """``filter_speckles``, and how many pixels of its result are known. ``workspace`` keeps the temporaries
+    between calls."""
+    disp = _check_speckle_args(disparity, max_size, max_diff, threads)
+    lo, hi, n_valid = _finite_range(disp)
+    if max_size == 0 or n_valid == 0:
+        return disp.copy(), n_valid
+    bands = _kernels.stripes(disp.shape[0])
+    n_workers = _kernels.workers_for(threads, len(bands))
+    empty = _kernels.scratch_allocator(workspace)
+    labels, parent, sizes = _label_regions(disp, lo, hi, max_diff, n_workers, empty)
+    out = np.empty_like(disp)
     kept = _kernels.run_stripes(bands, n_workers, lambda t, y0, y1: _speckle.apply_stripe(
         disp, int(max_size), y0, y1, labels, parent, sizes, out))
     return out, int(sum(kept))
+
+
+def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: float, threads: int = 1,
+                          workspace: Workspace | None = None) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """``fill_holes_marked(filter_speckles(disparity, ...))`` in one pass after the labelling
+    (``_speckle.apply_and_fill_stripe``: the filtered map, the row fill and the median are never stored whole),
+    and how many pixels the filter kept and the fill filled: ``(out, holes, kept, filled)``. The same numbers
+    as the two steps one after the other (tested), for any thread count."""
+    disp = _check_speckle_args(disparity, max_size, max_diff, threads)
+    lo, hi, n_valid = _finite_range(disp)
+    if max_size == 0 or n_valid == 0:
+        filtered, kept = _filter_speckles_counted(disp, max_size=max_size, max_diff=max_diff, threads=threads)
+        out, holes, filled = _fill_holes_counted(filtered, threads=threads, n_valid=kept, workspace=workspace)
+        return out, holes, kept, filled
+    bands = _kernels.stripes(disp.shape[0])
+    n_workers = _kernels.workers_for(threads, len(bands))
+    empty = _kernels.scratch_allocator(workspace)
+    labels, parent, sizes = _label_regions(disp, lo, hi, max_diff, n_workers, empty)
+    W = disp.shape[1]
+    scratch = [(empty(f"fill_rows_{t}", (3, W), np.float32), empty(f"fill_kept_{t}", (3, W), np.uint8),
+                empty(f"fill_columns_{t}", (3, W), np.float32)) for t in range(n_workers)]
+    out = np.empty_like(disp)
+    holes = np.empty(disp.shape, np.bool_)
+    counts = _kernels.run_stripes(bands, n_workers, lambda t, y0, y1: _speckle.apply_and_fill_stripe(
+        disp, int(max_size), y0, y1, labels, parent, sizes, out, holes, *scratch[t]))
+    return out, holes, int(sum(c[0] for c in counts)), int(sum(c[1] for c in counts))
 
 
 def _finite_range(disp: np.ndarray) -> tuple[float, float, int]:
@@ -121,6 +159,12 @@ def speckle_bytes(height: int, width: int) -> int:
     """Bytes ``filter_speckles`` allocates for a (height, width) map: the result, the scaled int16 copy, the
     labels and the union-find's parents and sizes."""
     return (4 + 2 + 4 + 4 + 4) * height * width
+
+
+def speckle_fill_bytes(height: int, width: int) -> int:
+    """Bytes the speckle filter and the hole fill allocate at most when run together (``_speckle_fill_counted``):
+    the filter's (``speckle_bytes``) and the filled-pixel mask; the fill's rows are per worker (3 rows)."""
+    return speckle_bytes(height, width) + height * width
 
 
 def fill_bytes(height: int, width: int) -> int:

@@ -11,7 +11,9 @@ three steps:
 2. ``join_stripes`` (serial, ``W`` pixels per stripe border): joins the regions that touch across a border and
    adds up their sizes.
 3. ``apply_stripe`` (in parallel): each pixel of a region of at most ``max_size`` pixels becomes NaN, as does
-   every pixel that was not finite; it returns the number of pixels kept.
+   every pixel that was not finite; it returns the number of pixels kept. ``apply_and_fill_stripe`` does this
+   and the hole fill of :func:`stereo_classic.matching.postprocess.fill_holes` in the same pass (what the matcher
+   runs when both are on): no filtered map, row fill or median image is stored between the two.
 
 Connected components do not depend on the order they are found in: the result is the same for any stripes
 and any thread count, and equal to ``cv2.filterSpeckles`` (tested pixel for pixel).
@@ -22,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["apply_stripe", "join_stripes", "label_stripe"]
+__all__ = ["apply_and_fill_stripe", "apply_stripe", "join_stripes", "label_stripe"]
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -125,3 +127,98 @@ def apply_stripe(disp, max_size, y0, y1, labels, parent, sizes, out):  # pragma:
             else:
                 out[y, x] = nan
     return kept
+
+
+@njit(cache=True, nogil=True)
+def _filled_row(disp, max_size, y, labels, parent, sizes, frow, krow):  # pragma: no cover - numba
+    """Row ``y`` after the speckle filter (``krow`` = 1 where a pixel is kept) and its background fill: ``frow`` =
+    the kept value, else the smaller of the nearest kept values to its left and right (the one that exists);
+    0 everywhere when the row keeps no pixel. Returns how many pixels the row keeps."""
+    W = disp.shape[1]
+    inf = np.float32(np.inf)
+    last_label = -1
+    keep = False
+    last = inf
+    n = 0
+    for x in range(W):  # the filter, and the left neighbour
+        a = labels[y, x]
+        if a != last_label:
+            last_label = a
+            keep = a >= 0 and sizes[_root(parent, a)] > max_size
+        if keep:
+            last = disp[y, x]
+            n += 1
+        krow[x] = keep
+        frow[x] = last
+    if n == 0:
+        frow[:] = np.float32(0.0)
+        return 0
+    nxt = inf
+    for x in range(W - 1, -1, -1):  # the right neighbour: the smaller of the two
+        if krow[x]:
+            nxt = frow[x]
+        elif nxt < frow[x]:
+            frow[x] = nxt
+    return n
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _med3(a, b, c):  # pragma: no cover - numba
+    return max(min(a, b), min(max(a, b), c))
+
+
+@njit(cache=True, nogil=True)
+def apply_and_fill_stripe(disp, max_size, y0, y1, labels, parent, sizes, out, holes, rows, kept_rows, columns
+                          ):  # pragma: no cover - numba
+    """Rows [y0, y1) of ``fill_holes_marked(filter_speckles(disp))``: the speckle filter (as ``apply_stripe``),
+    then each unknown pixel takes the smaller of the nearest known values to its left and right in its row, and
+    then the 3x3 median (borders replicated) of that row-filled map; where a row without any known pixel is
+    among the 3 rows, the row fill itself; in a row without any known pixel, NaN. ``holes`` = the pixels filled.
+
+    ``rows`` (3, W) float32, ``kept_rows`` (3, W) uint8 and ``columns`` (3, W) float32 are this worker's
+    scratch: the row-filled rows y - 1, y, y + 1 in a ring (row r in slot r % 3; a stripe makes its border rows'
+    neighbours itself, reading only the labels), and the sorted columns of the three. The median of 3 x 3 values
+    is the median of (the largest of the columns' smallest, the median of their medians, the smallest of their
+    largest): exact, without branches. Returns (pixels kept by the filter, pixels filled)."""
+    H, W = disp.shape
+    nan = np.float32(np.nan)
+    n_kept = 0
+    n_filled = 0
+    known = np.zeros(3, np.int64)  # pixels each ring row keeps (0: a row without any known pixel)
+    lo, mi, hi = columns[0], columns[1], columns[2]
+    for r in range(max(0, y0 - 1), min(H, y0 + 1)):
+        known[r % 3] = _filled_row(disp, max_size, r, labels, parent, sizes, rows[r % 3], kept_rows[r % 3])
+    for y in range(y0, y1):
+        if y + 1 < H:
+            known[(y + 1) % 3] = _filled_row(disp, max_size, y + 1, labels, parent, sizes, rows[(y + 1) % 3],
+                                             kept_rows[(y + 1) % 3])
+        s = y % 3
+        sm = max(y - 1, 0) % 3
+        sp = min(y + 1, H - 1) % 3
+        kept = kept_rows[s]
+        if known[s] == 0:
+            for x in range(W):
+                out[y, x] = nan
+                holes[y, x] = False
+            continue
+        n_kept += known[s]
+        n_filled += W - known[s]
+        b = rows[s]
+        if known[sm] == 0 or known[sp] == 0:  # the median would see a row without any known pixel: the row fill
+            for x in range(W):
+                out[y, x] = disp[y, x] if kept[x] else b[x]
+                holes[y, x] = not kept[x]
+            continue
+        a, c = rows[sm], rows[sp]
+        for x in range(W):
+            u, v, w = a[x], b[x], c[x]
+            lo[x] = min(min(u, v), w)
+            hi[x] = max(max(u, v), w)
+            mi[x] = _med3(u, v, w)
+        for x in range(W):
+            xl = max(x - 1, 0)
+            xr = min(x + 1, W - 1)
+            m = _med3(max(max(lo[xl], lo[x]), lo[xr]), _med3(mi[xl], mi[x], mi[xr]), min(min(hi[xl], hi[x]), hi[xr]))
+            out[y, x] = disp[y, x] if kept[x] else m
+            holes[y, x] = not kept[x]
+    return n_kept, n_filled

@@ -177,10 +177,45 @@ def test_speckles_and_fill_in_stripes_equal_opencv_for_any_thread_count(threads)
         np.testing.assert_array_equal(fill_holes(d, threads=threads), _fill_reference(d))
 
 
+@pytest.mark.parametrize("threads", [1, 2, 3, 5])
+def test_speckle_filter_and_fill_in_one_pass_equal_the_two_steps(threads):
+    """What the matcher runs when both are on (``_speckle_fill_counted``: the filter's labels, then the filter, the
+    row fill and the median in one pass) equals the fill of the filtered map, pixel for pixel, with the same
+    counts: rows without any known pixel (alone, in pairs, at the image borders), maps of one row or column,
+    regions across the stripes' borders, every thread count."""
+    from stereo_classic.matching.postprocess import _speckle_fill_counted
+
+    rng = np.random.default_rng(10)
+    for i in range(60):
+        h = int(rng.integers(1, 8)) if i % 5 == 0 else int(rng.integers(40, 220))
+        w = int(rng.integers(1, 4)) if i % 7 == 0 else int(rng.integers(1, 90))
+        d = np.round(rng.uniform(-5, 60, (h, w)) * rng.choice([0.02, 0.25, 4.0])).astype(np.float32)
+        d[rng.random((h, w)) < rng.uniform(0, 0.9)] = np.nan
+        if i % 3 == 0:
+            rows = rng.integers(0, h, int(rng.integers(1, 4)))
+            d[rows] = np.nan
+            d[np.clip(rows + 1, 0, h - 1)] = np.nan
+        if i % 4 == 0:
+            d[[0, h - 1]] = np.nan
+        if i % 11 == 0:
+            d[0, 0] = np.inf
+        for size in (0, 1, 4, 60):
+            expected = filter_speckles(d, max_size=size, max_diff=1.0)
+            out, holes, kept, filled = _speckle_fill_counted(d, max_size=size, max_diff=1.0, threads=threads)
+            np.testing.assert_array_equal(out, _fill_reference(expected))
+            np.testing.assert_array_equal(holes, ~np.isfinite(expected) & np.isfinite(out))
+            assert kept == int(np.isfinite(expected).sum()) and filled == int(holes.sum())
+
+
 def test_postprocess_stays_within_its_memory_estimate():
     import tracemalloc
 
-    from stereo_classic.matching.postprocess import fill_bytes, speckle_bytes
+    from stereo_classic.matching.postprocess import (
+        _speckle_fill_counted,
+        fill_bytes,
+        speckle_bytes,
+        speckle_fill_bytes,
+    )
 
     rng = np.random.default_rng(4)
     d = np.round(rng.uniform(0, 60, (300, 400)) * 0.25).astype(np.float32)
@@ -188,8 +223,10 @@ def test_postprocess_stays_within_its_memory_estimate():
     d[7] = np.nan  # a row without any known pixel: the fill's masked path
     filter_speckles(d[:50], max_size=10, max_diff=1.0)  # first-call allocations out of the way
     fill_holes(d[:50])
+    _speckle_fill_counted(d[:50], max_size=10, max_diff=1.0)
     for func, budget in ((lambda: filter_speckles(d, max_size=10, max_diff=1.0), speckle_bytes(*d.shape)),
-                         (lambda: fill_holes(d), fill_bytes(*d.shape))):
+                         (lambda: fill_holes(d), fill_bytes(*d.shape)),
+                         (lambda: _speckle_fill_counted(d, max_size=10, max_diff=1.0), speckle_fill_bytes(*d.shape))):
         tracemalloc.start()
         try:
             base = tracemalloc.get_traced_memory()[0]
