@@ -17,6 +17,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import cv2
 import numpy as np
 
 from stereo_classic.matching._kernels.aggregate import (
@@ -242,7 +243,7 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     E = D + 2
     workers = max(1, min(int(threads), len(stripes(H))))  # one set of row buffers per worker thread
     total = 2 * 4 * H * W  # left and right disparity
-    total += 17 * H * W  # the penalty factors (uint8) and the int16 / int32 temporaries they are made from
+    total += 7 * H * W  # the penalty factors (uint8) and the int16 gradient and int32 sums they are made from
     if kind != SAD:  # census codes, four uint16 quarters per pixel, and the two padded images they are made from
         total += 2 * 8 * H * W + 2 * (H + 20) * (W + 20)
     if kind != CENSUS:  # prefiltered images (gradient; and intensity for SAD)
@@ -273,12 +274,17 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
 
     scratch = scratch_allocator(workspace)
 
+    def padded(side: str, img: np.ndarray, top: int, sides: int) -> np.ndarray:
+        # replicated borders (np.pad's "edge"), into the workspace: cv2 takes 0.02 ms where np.pad took 0.15-0.25
+        out = scratch(f"{side}_padded_{top}_{sides}", (H + 2 * top, W + 2 * sides), np.uint8)
+        return cv2.copyMakeBorder(img, top, top, sides, sides, cv2.BORDER_REPLICATE, dst=out)
+
     views = []
     for side, img in (("left", left), ("right", right)):
         views.append((
-            np.pad(img, ((h // 2, h // 2), (w // 2, w // 2)), mode="edge") if census else None,
+            padded(side, img, h // 2, w // 2) if census else None,
             scratch(side + "_code", (H, W, 4), np.uint16) if census else _placeholder(np.uint16, 3),
-            np.pad(img, 1, mode="edge") if sobel else None,
+            padded(side, img, 1, 1) if sobel else None,
             scratch(side + "_sobel", (H, W), np.int16) if sobel else _placeholder(np.int16, 2),
             # no intensity term but for SAD: the kernels read no intensity image then
             img.astype(np.int16) if cost == "sad" else _placeholder(np.int16, 2)))
@@ -288,7 +294,7 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
     def rows(t: int, task) -> None:
         side, band = task
         if band is None:  # the penalty factors: one task of their own, taken first, beside the stripes
-            weak_texture_scale(left, weak_texture_gain, scale)
+            weak_texture_scale(left, weak_texture_gain, scale, scratch=scratch)
             return
         y0, y1 = band
         padded_c, code, padded_s, sob, _ = views[side]

@@ -501,11 +501,12 @@ def _scale_table(top: int) -> np.ndarray:
 _SCALE_TABLES: dict[int, np.ndarray] = {}
 
 
-def weak_texture_scale(left: np.ndarray, gain: float, out: np.ndarray | None = None) -> np.ndarray:
+def weak_texture_scale(left: np.ndarray, gain: float, out: np.ndarray | None = None, *, scratch=None) -> np.ndarray:
     """(H, W) uint8 penalty factors in sixteenths: ``clip(16 * TEXTURE_REFERENCE / t, 16, max_penalty_scale(gain))``
     rounded half up, ``t`` the TEXTURE_WINDOW x TEXTURE_WINDOW window mean of ``|Sobel_x(left)|`` (borders
     replicated), in integer arithmetic through a table (the same numbers on every machine and thread count); all 16
-    when ``gain`` <= 1."""
+    when ``gain`` <= 1. ``scratch(name, shape, dtype)`` gives the temporaries (a workspace's: no fresh arrays per
+    call), default new arrays."""
     import cv2
 
     if out is None:
@@ -517,9 +518,15 @@ def weak_texture_scale(left: np.ndarray, gain: float, out: np.ndarray | None = N
     table = _SCALE_TABLES.get(top)
     if table is None:
         table = _SCALE_TABLES[top] = _scale_table(top)
-    grad = np.abs(cv2.Sobel(left, cv2.CV_16S, 1, 0, ksize=3, borderType=cv2.BORDER_REPLICATE)).astype(np.uint16)
-    sums = cv2.boxFilter(grad, cv2.CV_32S, (TEXTURE_WINDOW, TEXTURE_WINDOW), normalize=False,
+    if scratch is None:
+        def scratch(name, shape, dtype):
+            return np.empty(shape, dtype)
+    grad = cv2.Sobel(left, cv2.CV_16S, 1, 0, dst=scratch("texture_grad", left.shape, np.int16), ksize=3,
+                     borderType=cv2.BORDER_REPLICATE)
+    np.abs(grad, out=grad)  # at most 4 * 255: the same bits as uint16
+    sums = cv2.boxFilter(grad.view(np.uint16), cv2.CV_32S, (TEXTURE_WINDOW, TEXTURE_WINDOW),
+                         dst=scratch("texture_sums", left.shape, np.int32), normalize=False,
                          borderType=cv2.BORDER_REPLICATE)
     np.minimum(sums, table.size - 1, out=sums)  # every larger sum is textured: 16
-    np.take(table, sums, out=out)
+    np.take(table, sums, out=out, mode="clip")  # "clip": not buffered (the indices are in range)
     return out
