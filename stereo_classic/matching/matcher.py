@@ -24,14 +24,7 @@ import numpy as np
 
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching.params import SGMParams
-from stereo_classic.matching.postprocess import (
-    _fill_holes_counted,
-    _filter_speckles_counted,
-    _speckle_fill_counted,
-    fill_bytes,
-    speckle_bytes,
-    speckle_fill_bytes,
-)
+from stereo_classic.matching.postprocess import _speckle_and_fill, fill_bytes, speckle_bytes, speckle_fill_bytes
 
 __all__ = [
     "compute_disparity",
@@ -469,22 +462,9 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         disparity[:, short] = np.nan
     valid_before = disparity.size - unknown_matcher - short_range
     threads = params.effective_threads
-    filled = 0
-    filled_mask = None
-    if params.speckle_size > 0 and params.fill_holes:  # both in one pass after the speckle filter's labelling
-        disparity, filled_mask, valid_after_speckle, filled = _speckle_fill_counted(
-            disparity, max_size=params.speckle_size, max_diff=params.speckle_range, threads=threads,
-            workspace=workspace)
-    else:
-        if params.speckle_size > 0:
-            disparity, valid_after_speckle = _filter_speckles_counted(
-                disparity, max_size=params.speckle_size, max_diff=params.speckle_range, threads=threads,
-                workspace=workspace)
-        else:
-            valid_after_speckle = int(np.count_nonzero(np.isfinite(disparity)))
-        if params.fill_holes:
-            disparity, filled_mask, filled = _fill_holes_counted(disparity, threads=threads,
-                                                                 n_valid=valid_after_speckle, workspace=workspace)
+    disparity, filled_mask, valid_after_speckle, filled = _speckle_and_fill(
+        disparity, max_size=params.speckle_size, max_diff=params.speckle_range, fill=params.fill_holes,
+        threads=threads, workspace=workspace)
     border = reach < params.num_disparities  # the full range does not fit: matched with the range that does
     t3 = time.perf_counter()
 

@@ -140,6 +140,25 @@ def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: flo
     return out, holes, int(sum(c[0] for c in counts)), int(sum(c[1] for c in counts))
 
 
+def _speckle_and_fill(disparity: np.ndarray, *, max_size: int, max_diff: float, fill: bool, threads: int = 1,
+                      workspace: Workspace | None = None) -> tuple[np.ndarray, np.ndarray | None, int, int]:
+    """The matcher's post-processing: the speckle filter (``max_size`` > 0) and the hole fill (``fill``), in one
+    pass when both are on. Returns (map, filled-pixel mask or None without the fill, pixels known after the filter,
+    pixels filled)."""
+    if max_size > 0 and fill:
+        return _speckle_fill_counted(disparity, max_size=max_size, max_diff=max_diff, threads=threads,
+                                     workspace=workspace)
+    if max_size > 0:
+        disparity, known = _filter_speckles_counted(disparity, max_size=max_size, max_diff=max_diff, threads=threads,
+                                                    workspace=workspace)
+    else:
+        known = int(np.count_nonzero(np.isfinite(disparity)))
+    if not fill:
+        return disparity, None, known, 0
+    out, holes, filled = _fill_holes_counted(disparity, threads=threads, n_valid=known, workspace=workspace)
+    return out, holes, known, filled
+
+
 def _finite_range(disp: np.ndarray) -> tuple[float, float, int]:
     """(smallest, largest, count) of the finite values of ``disp`` (NumPy's NaN-skipping reductions: as fast as a
     numba loop here, without its two seconds of compilation on the first call)."""
