@@ -5,11 +5,17 @@
 * ``cost``: census, census + gradient and SAD costs, one row at a time; ``select``: the winner of a row.
 * ``speckle``: the speckle filter's connected components in stripes.
 * ``intrinsics``: int16 arithmetic and popcount as LLVM operations.
+* ``vectors``: 512-bit vectors for the int16 loops where the CPU runs them at full clock (set here, on import,
+  before numba compiles anything).
 
 Importing them compiles nothing: numba compiles (or loads from its cache) on the first call.
 The kernels import nothing from the rest of the project.
 """
 
 from __future__ import annotations
+
+from stereo_classic.matching._kernels.vectors import prefer_wide_vectors
+
+prefer_wide_vectors()
 
 __all__: list[str] = []

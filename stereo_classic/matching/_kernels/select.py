@@ -17,6 +17,9 @@ from stereo_classic.matching._kernels.intrinsics import eq16, min16, pick16
 __all__ = ["select_row", "right_view_row"]
 
 _INT16_MAX = 32767
+#: Rounds of the right view's sweep: pixels of one round are 32 int16 apart, a whole vector of the widest
+#: (512-bit) registers.
+_ROUNDS = 32
 _U = np.uint64  # unsigned flat indices: no wraparound code, contiguous vector loads
 
 
@@ -138,8 +141,8 @@ def right_view_row(srow, rv, rd, W, D):  # pragma: no cover - numba
     for q in range(rv.shape[0]):
         rv[q] = big
         rd[q] = minus1
-    for p in range(16):
-        for x in range(p, W, 16):
+    for p in range(_ROUNDS):
+        for x in range(p, W, _ROUNDS):
             q0 = W - 1 - x
             b = x * D
             for k in range(D):
