@@ -103,6 +103,22 @@ def _half(image: np.ndarray) -> np.ndarray:
     return cv2.resize(image, (max(1, w // 2), max(1, h // 2)), interpolation=cv2.INTER_AREA)
 
 
+class _Halves:
+    """The half-size left and right images of one frame, each made once, when a look first needs it: the pair
+    check's two looks and the range check's look share them (KITTI pair: 1.2 ms a resize, six of them a frame
+    before)."""
+
+    def __init__(self, left: np.ndarray, right: np.ndarray) -> None:
+        self._full = (left, right)
+        self._half: dict[int, np.ndarray] = {}
+
+    def get(self, side: int) -> np.ndarray:
+        """0: the left image at half size, 1: the right one."""
+        if side not in self._half:
+            self._half[side] = _half(self._full[side])
+        return self._half[side]
+
+
 def _fit_range(needed: float) -> int:
     """The smallest multiple of 16 disparities that holds ``needed`` px with a 1 px margin."""
     return int(16 * math.ceil((needed + 2) / 16))
@@ -122,7 +138,11 @@ class FrameChecker:
         self._matchers: dict[tuple[bool, str], StereoMatcher] = {}
         self._pool: ThreadPoolExecutor | None = None
 
-    def _half_match(self, left: np.ndarray, right: np.ndarray, *, reach: bool, role: str = "",
+    def halves(self, left: np.ndarray, right: np.ndarray) -> _Halves:
+        """The half-size images of one frame, for its checks to share (pass it to each check of that frame)."""
+        return _Halves(left, right)
+
+    def _half_match(self, halves: _Halves, *, swap: bool = False, reach: bool, role: str = "",
                     threads: int | None = None) -> DisparityMap | None:
         """Disparity of the half-size pair, or None when the half-size images are too small for the range.
 
@@ -131,7 +151,8 @@ class FrameChecker:
         The settings are fixed, whatever the caller's (census cost with its default penalties, the full 1 px
         left-right check, no hole filling): the valid fraction is the share of left-right consistent pixels and
         every disparity a measured one. ``role`` names a matcher of its own (two looks can run at once);
-        ``threads`` its kernel threads (default: the caller's; the disparity is the same for any count).
+        ``threads`` its kernel threads (default: the caller's; the disparity is the same for any count); ``swap``:
+        the right image as the left one.
         """
         try:
             key = (reach, role)
@@ -142,25 +163,28 @@ class FrameChecker:
                     min_disparity=math.floor(p.min_disparity / 2), num_disparities=num, cost="census", p1=None,
                     p2=None, weak_texture_gain=1.0, lr_check=1.0, lr_mode="full", fill_holes=False,
                     threads=p.threads if threads is None else threads))
-            return self._matchers[key].compute(_half(left), _half(right))
+            first, second = (1, 0) if swap else (0, 1)
+            return self._matchers[key].compute(halves.get(first), halves.get(second))
         except ValueError:  # StereoInputError, MemoryBudgetError: the images are too small for the range
             return None
 
-    def _pair_looks(self, left: np.ndarray, right: np.ndarray) -> tuple[DisparityMap | None, DisparityMap | None]:
+    def _pair_looks(self, halves: _Halves) -> tuple[DisparityMap | None, DisparityMap | None]:
         """The pair check's two half-size looks, as given and with left and right exchanged. With two or more
         threads they run at once, each on half of them: a look is small (a quarter of the pixels, half the range),
         so its stripes and its serial post-processing leave a second core idle (KITTI pair, 2 threads, check_pair:
         34.9 ms median one after the other, 30.3 at once; best 30.7 and 21.8)."""
         threads = self.params.effective_threads
         if threads < 2:
-            return (self._half_match(left, right, reach=False, role="as given"),
-                    self._half_match(right, left, reach=False, role="exchanged"))
+            return (self._half_match(halves, reach=False, role="as given"),
+                    self._half_match(halves, swap=True, reach=False, role="exchanged"))
         if self._pool is None:
             self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pair-check")
+        halves.get(0), halves.get(1)  # made once, before the two looks read them
         each = max(1, threads // 2)
-        exchanged = self._pool.submit(self._half_match, right, left, reach=False, role="exchanged", threads=each)
+        exchanged = self._pool.submit(self._half_match, halves, swap=True, reach=False, role="exchanged",
+                                      threads=each)
         try:
-            given = self._half_match(left, right, reach=False, role="as given", threads=each)
+            given = self._half_match(halves, reach=False, role="as given", threads=each)
         finally:
             backward = exchanged.result()
         return given, backward
@@ -173,8 +197,10 @@ class FrameChecker:
             self._pool = None
 
     # ------------------------------------------------------------------------------------------ pair
-    def check_pair(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap) -> FrameWarning | None:
-        """The swapped / mismatched pair warning, or None. ``dmap`` (the full-size disparity) is quoted."""
+    def check_pair(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap,
+                   halves: _Halves | None = None) -> FrameWarning | None:
+        """The swapped / mismatched pair warning, or None. ``dmap`` (the full-size disparity) is quoted;
+        ``halves``: :meth:`halves` of this frame, when another check of it shares them."""
         valid = dmap.valid_fraction
         if left.shape == right.shape and np.array_equal(left, right):
             return FrameWarning("pair_mismatch", "left and right are the same image (every disparity is 0, every "
@@ -182,7 +208,7 @@ class FrameChecker:
         h, w = left.shape[:2]
         if w // 2 < max(MIN_CHECK_WIDTH, self.params.num_disparities // 2 + 32) or h // 2 < MIN_CHECK_HEIGHT:
             return None  # too small to tell: on tiny images nearly every match is consistent both ways
-        forward, backward = self._pair_looks(left, right)
+        forward, backward = self._pair_looks(self.halves(left, right) if halves is None else halves)
         if forward is None or backward is None:
             return None
         fwd, rev = forward.valid_fraction, backward.valid_fraction
@@ -200,15 +226,17 @@ class FrameChecker:
 
     # ------------------------------------------------------------------------------------------ range
     def check_range(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap, objects: LocalizedObjects,
-                    rig: Any, fusion: FusionParams, seed: int) -> tuple[LocalizedObjects, FrameWarning | None]:
-        """The objects (those beyond the range re-marked ``"beyond_range"``) and the range warning, or None."""
+                    rig: Any, fusion: FusionParams, seed: int, halves: _Halves | None = None
+                    ) -> tuple[LocalizedObjects, FrameWarning | None]:
+        """The objects (those beyond the range re-marked ``"beyond_range"``) and the range warning, or None;
+        ``halves`` as for :meth:`check_pair`."""
         disp = dmap.measured_disparity  # filled pixels are guesses: they neither saturate nor count as known
         top = float(dmap.params.max_disparity)
         frame_share = range_saturation(disp, top)
         boxes = _suspect_boxes(disp, objects, top, fusion.box_shrink)
         if frame_share < SATURATION_WARN and not boxes.any():
             return objects, None
-        probe = self._half_match(left, right, reach=True)
+        probe = self._half_match(self.halves(left, right) if halves is None else halves, reach=True)
         if probe is None:
             return objects, (FrameWarning("range_saturated", _range_message(frame_share, top, rig, None))
                              if frame_share >= SATURATION_WARN else None)
@@ -246,7 +274,7 @@ class FrameChecker:
         share = range_saturation(disp, top)
         if share < SATURATION_WARN:
             return None
-        probe = self._half_match(left, right, reach=True)
+        probe = self._half_match(self.halves(left, right), reach=True)
         needed = None
         if probe is not None:
             h, w = disp.shape

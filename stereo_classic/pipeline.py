@@ -247,11 +247,13 @@ class Localizer:
         """The frame checks (:mod:`stereo_classic.checks`): objects re-marked, warnings (logged once per kind)."""
         if self.checker is None:
             return objects, ()
-        warning = self.checker.check_pair(left, right, dmap)
+        halves = self.checker.halves(left, right)  # the half-size images, made once for both checks
+        warning = self.checker.check_pair(left, right, dmap, halves)
         if warning is not None:
             objects = objects.with_status(np.ones(len(objects), dtype=bool), "pair_mismatch")
         else:
-            objects, warning = self.checker.check_range(left, right, dmap, objects, self.rig, self.fusion, self.seed)
+            objects, warning = self.checker.check_range(left, right, dmap, objects, self.rig, self.fusion, self.seed,
+                                                        halves)
         if warning is None:
             return objects, ()
         (log.debug if warning.code in self._warned else log.warning)("%s", warning.message)

@@ -67,6 +67,29 @@ def test_object_beyond_the_range_is_marked_and_the_frame_says_which_range_fits(n
     assert r.objects.to_json()[0]["distance_m"] is None
 
 
+def test_a_frames_checks_share_its_half_size_images(near_scene, monkeypatch):
+    """The pair check's two looks and the range check's look resize each image of the frame once, and give what
+    they give with images of their own (the same objects, statuses and warning)."""
+    import stereo_classic.checks as checks
+
+    left, right, rig = near_scene
+    resized = []
+    real_half = checks._half
+    monkeypatch.setattr(checks, "_half", lambda image: resized.append(image.shape) or real_half(image))
+    with Localizer(rig, FixedBoxes([BOX]), {"num_disparities": 48, "fill_holes": False}) as loc:
+        r = loc(left, right)
+    assert len(resized) == 2 and r.objects.status == ("beyond_range",)  # both checks looked (the range one too)
+    checker = FrameChecker(SGMParams(num_disparities=48, fill_holes=False))
+    try:
+        resized.clear()
+        alone = checker.check_range(left, right, r.disparity, r.objects, rig, loc.fusion, loc.seed)
+        assert checker.check_pair(left, right, r.disparity) is None and len(resized) == 4  # two of their own each
+    finally:
+        checker.close()
+    assert alone[0].status == r.objects.status and [alone[1].code] == [w.code for w in r.warnings]
+    assert alone[1].message == r.warnings[0].message
+
+
 def test_the_range_that_fits_measures_it_without_a_warning(near_scene):
     left, right, rig = near_scene
     with Localizer(rig, FixedBoxes([BOX]), {"num_disparities": 96}) as loc:
@@ -172,7 +195,7 @@ def test_the_pair_looks_at_once_equal_the_looks_one_after_the_other(near_scene, 
     both = FrameChecker(SGMParams(num_disparities=96, threads=2))
     one = FrameChecker(SGMParams(num_disparities=96, threads=1))
     try:
-        at_once, in_turn = both._pair_looks(left, right), one._pair_looks(left, right)
+        at_once, in_turn = both._pair_looks(both.halves(left, right)), one._pair_looks(one.halves(left, right))
         assert both._pool is not None and one._pool is None  # the two ways really ran
         for a, b in zip(at_once, in_turn):
             np.testing.assert_array_equal(a.disparity, b.disparity)
