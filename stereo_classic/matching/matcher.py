@@ -464,7 +464,8 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     threads = params.effective_threads
     disparity, filled_mask, valid_after_speckle, filled = _speckle_and_fill(
         disparity, max_size=params.speckle_size, max_diff=params.speckle_range, fill=params.fill_holes,
-        threads=threads, workspace=workspace)
+        threads=threads, workspace=workspace,  # winners lie in the range, subpixel within 0.5 px of one
+        bound=max(abs(params.min_disparity), abs(params.min_disparity + params.num_disparities)) + 1.0)
     border = reach < params.num_disparities  # the full range does not fit: matched with the range that does
     t3 = time.perf_counter()
 

@@ -115,13 +115,19 @@ def _filter_speckles_counted(disparity: np.ndarray, *, max_size: int, max_diff: 
 
 
 def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: float, threads: int = 1,
-                          workspace: Workspace | None = None) -> tuple[np.ndarray, np.ndarray, int, int]:
+                          workspace: Workspace | None = None, bound: float | None = None
+                          ) -> tuple[np.ndarray, np.ndarray, int, int]:
     """``fill_holes_marked(filter_speckles(disparity, ...))`` in one pass after the labelling
     (``_speckle.apply_and_fill_stripe``: the filtered map, the row fill and the median are never stored whole),
     and how many pixels the filter kept and the fill filled: ``(out, holes, kept, filled)``. The same numbers
-    as the two steps one after the other (tested), for any thread count."""
+    as the two steps one after the other (tested), for any thread count. ``bound``: the largest magnitude the
+    map's values can have (the matcher's from its range); when it keeps the filter's scale at 16, the serial
+    scan of the map for its range is skipped (the scale is 16 either way)."""
     disp = _check_speckle_args(disparity, max_size, max_diff, threads)
-    lo, hi, n_valid = _finite_range(disp)
+    if bound is not None and max_size > 0 and 0 <= bound and bound * 16.0 <= _I16_LIMIT:
+        lo, hi, n_valid = -float(bound), float(bound), -1  # n_valid unknown: a map without any is fine below
+    else:
+        lo, hi, n_valid = _finite_range(disp)
     if max_size == 0 or n_valid == 0:
         filtered, kept = _filter_speckles_counted(disp, max_size=max_size, max_diff=max_diff, threads=threads)
         out, holes, filled = _fill_holes_counted(filtered, threads=threads, n_valid=kept, workspace=workspace)
@@ -141,13 +147,14 @@ def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: flo
 
 
 def _speckle_and_fill(disparity: np.ndarray, *, max_size: int, max_diff: float, fill: bool, threads: int = 1,
-                      workspace: Workspace | None = None) -> tuple[np.ndarray, np.ndarray | None, int, int]:
+                      workspace: Workspace | None = None, bound: float | None = None
+                      ) -> tuple[np.ndarray, np.ndarray | None, int, int]:
     """The matcher's post-processing: the speckle filter (``max_size`` > 0) and the hole fill (``fill``), in one
-    pass when both are on. Returns (map, filled-pixel mask or None without the fill, pixels known after the filter,
-    pixels filled)."""
+    pass when both are on (``bound`` as for ``_speckle_fill_counted``). Returns (map, filled-pixel mask or None
+    without the fill, pixels known after the filter, pixels filled)."""
     if max_size > 0 and fill:
         return _speckle_fill_counted(disparity, max_size=max_size, max_diff=max_diff, threads=threads,
-                                     workspace=workspace)
+                                     workspace=workspace, bound=bound)
     if max_size > 0:
         disparity, known = _filter_speckles_counted(disparity, max_size=max_size, max_diff=max_diff, threads=threads,
                                                     workspace=workspace)

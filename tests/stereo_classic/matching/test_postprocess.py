@@ -205,6 +205,13 @@ def test_speckle_filter_and_fill_in_one_pass_equal_the_two_steps(threads):
             np.testing.assert_array_equal(out, _fill_reference(expected))
             np.testing.assert_array_equal(holes, ~np.isfinite(expected) & np.isfinite(out))
             assert kept == int(np.isfinite(expected).sum()) and filled == int(holes.sum())
+            # the matcher's bound on the magnitudes instead of a scan for them: the same
+            finite = np.abs(d[np.isfinite(d)])
+            bound = float(finite.max()) + 1.0 if finite.size else 1.0
+            again = _speckle_fill_counted(d, max_size=size, max_diff=1.0, threads=threads, bound=bound)
+            np.testing.assert_array_equal(again[0], out)
+            np.testing.assert_array_equal(again[1], holes)
+            assert again[2:] == (kept, filled)
 
 
 def test_postprocess_stays_within_its_memory_estimate():
