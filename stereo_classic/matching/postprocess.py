@@ -122,7 +122,9 @@ def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: flo
     and how many pixels the filter kept and the fill filled: ``(out, holes, kept, filled)``. The same numbers
     as the two steps one after the other (tested), for any thread count. ``bound``: the largest magnitude the
     map's values can have (the matcher's from its range); when it keeps the filter's scale at 16, the serial
-    scan of the map for its range is skipped (the scale is 16 either way)."""
+    scan of the map for its range is skipped (the scale is 16 either way). Without the scan a map whose every
+    value is infinite comes out NaN where the two steps return it as given: the matcher's unknown pixels are NaN,
+    never infinite."""
     disp = _check_speckle_args(disparity, max_size, max_diff, threads)
     if bound is not None and max_size > 0 and 0 <= bound and bound * 16.0 <= _I16_LIMIT:
         lo, hi, n_valid = -float(bound), float(bound), -1  # n_valid unknown: a map without any is fine below
