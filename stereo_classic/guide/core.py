@@ -141,6 +141,7 @@ class Guide:
         self.last_time: float | None = None
         self.frames = 0
         self._rig_key: tuple | None = None
+        self._drop_m = math.nan            # how far down the last drop-off seen went (metres)
 
     def reset(self) -> None:
         """Forget the ground, the tracks and what was said (a new scene)."""
@@ -218,7 +219,7 @@ class Guide:
             points = PointSample(np.zeros((0, 2)), np.zeros((0, 3)), stride, float(rig.focal_px))
             plane = None
         else:
-            plane = self.ground.update(points, fb)
+            plane = self.ground.update(points, fb, before_m=self._edge_ahead(time_s))
         left_b = math.degrees(math.atan2(-rig.cx_left, rig.focal_px))
         right_b = math.degrees(math.atan2(w - 1 - rig.cx_left, rig.focal_px))
         hours_b = np.array([b for b in (-60.0, -30.0, 0.0, 30.0, 60.0) if left_b - 5 <= b <= right_b + 5])
@@ -243,15 +244,30 @@ class Guide:
             if edge_pts:
                 blocked = np.vstack([blocked] + edge_pts)
         measurements = self._measure_objects(result, rig, disparity, plane)
+        if dropoff is not None and not dropoff.edge_seen and (self._edge_ahead(time_s) is not None
+                                                              or plane.source == "kept"):
+            # No ground seen before it: with a tracked edge ahead, the edge has left the view and its track says
+            # where it is (below); on a kept plane (this frame's fit disagreed) it is the level now underfoot.
+            dropoff = None
+        if dropoff is not None and dropoff.edge_seen:   # an edge seen starts or moves a track (and holds the ground)
+            self._drop_m = dropoff.drop_m
+            measurements.append(Measurement("drop_off", "drop-off", dropoff.lateral_m, dropoff.forward_m,
+                                            dropoff.distance_m, p.corridor_width))
         for m in measurements:
-            blocked = np.vstack([blocked, [[m.lateral_m * m.nearest_m / max(m.distance_m, 1e-6),
-                                            m.forward_m * m.nearest_m / max(m.distance_m, 1e-6)]]])
-        obstacles = [o for o in obstacles if not any(self._explains(m, o) for m in measurements)]
+            if m.kind == "object":
+                blocked = np.vstack([blocked, [[m.lateral_m * m.nearest_m / max(m.distance_m, 1e-6),
+                                                m.forward_m * m.nearest_m / max(m.distance_m, 1e-6)]]])
+        obstacles = [o for o in obstacles if not any(self._explains(m, o) for m in measurements if m.kind == "object")]
         measurements += [Measurement("obstacle", "obstacle", o.lateral_m, o.forward_m, o.nearest_m, o.width_m)
                          for o in obstacles]
         tracks = self.tracker.update(measurements, time_s)
+        drop_track = next((t for t in tracks if t.kind == "drop_off"), None)
+        if plane is not None and dropoff is None:
+            dropoff, drop_track = self._predicted_dropoff(time_s)
+            if dropoff is not None:
+                blocked = np.vstack([blocked, self._edge_points(dropoff)])
         first = self.frames == 1
-        shown = [t for t in tracks if t.hits >= 2 or first]
+        shown = [t for t in tracks if (t.hits >= 2 or first) and t.kind != "drop_off"]   # drop-offs: below
         views = [self._view(t) for t in shown]
         free = free_distances(blocked, hours_b, p.corridor_width, p.look_ahead) if plane is not None \
             else np.full(len(hours_b), np.nan)
@@ -264,10 +280,12 @@ class Guide:
             order = sorted(range(len(hours_b)), key=lambda i: (-round(float(free[i]), 1), abs(hours_b[i])))
             clear = int(hours[order[0]])
         candidates = [Candidate(v.kind, v.label, v.track_id, v.distance_m, v.nearest_m, v.bearing_deg,
-                                v.approach_mps, v.ttc_s, v.in_corridor) for v in views]
+                                v.approach_mps, v.ttc_s, v.in_corridor) for v in views if v.kind != "drop_off"]
         if dropoff is not None:
-            candidates.append(Candidate("drop_off", "drop-off", None, dropoff.distance_m, dropoff.distance_m,
-                                        dropoff.bearing_deg, None, None, True))
+            tid, approach, ttc = ((drop_track.track_id, drop_track.approach_mps, drop_track.ttc_s)
+                                  if drop_track is not None else (None, None, None))
+            candidates.append(Candidate("drop_off", "drop-off", tid, dropoff.distance_m, dropoff.distance_m,
+                                        dropoff.bearing_deg, approach, ttc, True))
         if clear is not None and 0.0 in hours_b:
             ahead = float(free[list(hours_b).index(0.0)])
             best = float(free[list(hours).index(clear)])
@@ -280,6 +298,22 @@ class Guide:
                           hours=hours, free_m=free, clear_clock=clear, sectors_deg=sectors, haptics=haptics,
                           tracks=views, events=events, notes=tuple(notes),
                           obstacle_uv=points.uv[corridor_mask] if corridor_mask is not None else np.zeros((0, 2)))
+
+    def _edge_ahead(self, time_s: float) -> float | None:
+        """How far ahead (metres) the nearest tracked drop-off's edge is predicted at ``time_s``, or None."""
+        ahead = [t.predict_fitted(time_s)[1] for t in self.tracker.tracks if t.kind == "drop_off"]
+        ahead = [f for f in ahead if f > 0.0]
+        return min(ahead) if ahead else None
+
+    def _predicted_dropoff(self, time_s: float) -> tuple[DropOff | None, Track | None]:
+        """The drop-off of a track kept unseen (its edge predicted ahead), where its track puts it now."""
+        held = [t for t in self.tracker.held(time_s) if t.predict_fitted(time_s)[1] > 0.0]
+        if not held:
+            return None, None
+        t = min(held, key=lambda t: t.predict_fitted(time_s)[1])
+        lat, fwd = t.predict_fitted(time_s)
+        return DropOff(distance_m=math.hypot(lat, fwd), bearing_deg=0.0, lateral_m=lat, forward_m=fwd,
+                       drop_m=self._drop_m, predicted=True), t
 
     def _edge_points(self, d: DropOff) -> np.ndarray:
         """Points along a drop-off's edge, across the corridor (they block the free distance)."""

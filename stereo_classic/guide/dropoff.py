@@ -51,6 +51,14 @@ class DropOff:
     bearing_deg : float, degrees, bearing of the strip (0 ahead, positive right)
     lateral_m, forward_m : float, metres, the edge's centre in the ground frame
     drop_m : float, metres, how far the lower surface lies below the ground (median)
+    edge_seen : bool
+        Whether the ground was seen in front of the edge (in the half metre before it the ground outweighs
+        the lower surface). False: the edge lies nearer than the ground the camera sees (or outside the view)
+        and ``distance_m`` is where the nearest ray to the lower surface crosses the ground, an upper bound.
+    predicted : bool
+        False: seen in this frame. True: not seen in this frame but tracked (the edge has left the view nearer
+        than the ground the camera sees, or one frame missed it): where its track puts it now, from its last
+        positions and their speed (``Guide``, :data:`~stereo_classic.guide.tracking.DROP_HOLD_S`).
     """
 
     distance_m: float
@@ -58,6 +66,8 @@ class DropOff:
     lateral_m: float
     forward_m: float
     drop_m: float
+    edge_seen: bool = True
+    predicted: bool = False
 
     @property
     def clock(self) -> int:
@@ -147,10 +157,13 @@ def find_dropoff(ground_points: np.ndarray, area: np.ndarray, params: GuideParam
         edge = float(percentile(along[seen], 99))
     else:
         edge = float(percentile(along[below][lower_near], 1)) * camera_height / (camera_height + drop)
+    before = slice(max(0, math.floor(edge / BIN_M) - win), max(0, math.floor(edge / BIN_M)))
+    edge_seen = bool(level_area[before].sum() > below_area[before].sum())
     if edge > params.look_ahead:
         return None
     pick = below & (np.abs(along - along[below][lower_near].min()) < 0.5)
     offset = float(median(across[pick])) if pick.any() else 0.0
     lat_c = edge * math.sin(b) + offset * math.cos(b)
     fwd_c = edge * math.cos(b) - offset * math.sin(b)
-    return DropOff(distance_m=edge, bearing_deg=float(bearing_deg), lateral_m=lat_c, forward_m=fwd_c, drop_m=drop)
+    return DropOff(distance_m=edge, bearing_deg=float(bearing_deg), lateral_m=lat_c, forward_m=fwd_c, drop_m=drop,
+                   edge_seen=edge_seen)

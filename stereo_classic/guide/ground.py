@@ -260,6 +260,38 @@ def _refit(cand: np.ndarray, band: np.ndarray, up: np.ndarray, h: float, ref: np
 _SETTLED_COS = math.cos(math.radians(0.2))
 
 
+def _refit_offset(cand: np.ndarray, band: np.ndarray, up: np.ndarray, h: float, rounds: int = 6
+                  ) -> tuple[np.ndarray, float, np.ndarray]:
+    """:func:`_refit` with ``up`` fixed (a given pitch): only the offset moves, to the mean of its inliers'."""
+    inl = np.empty(len(cand), np.bool_)
+    n_in = inlier_mask(cand, band, up, h, inl)
+    for _ in range(rounds):
+        if n_in < 1:
+            break
+        new_h = float(-(inlier_scatter(cand, inl)[0] @ up))
+        settled = abs(new_h - h) < 0.005
+        h = new_h
+        n_in = inlier_mask(cand, band, up, h, inl)
+        if settled:
+            break
+    return up, h, inl
+
+
+#: Spacing of the offsets tried for a ground whose ``up`` is known (metres): finer than any inlier band (3 cm).
+OFFSET_STEP_M = 0.01
+
+
+def _level_hypotheses(pts: np.ndarray, up: np.ndarray, height_range: tuple[float, float]
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Planes with the known ``up`` at every offset (``OFFSET_STEP_M`` apart, within ``height_range``) where
+    one of ``pts`` lies: every candidate plane, none drawn by chance. ``(K, 3)`` and ``(K,)`` as
+    :func:`_hypotheses`."""
+    offsets = -(pts @ up)
+    offsets = offsets[(offsets >= height_range[0]) & (offsets <= height_range[1])]
+    offsets = np.unique(np.round(offsets / OFFSET_STEP_M)) * OFFSET_STEP_M
+    return np.tile(up, (len(offsets), 1)), offsets
+
+
 def _hypotheses(pts: np.ndarray, gen: np.random.Generator, iterations: int, ref: np.ndarray, limit: float,
                 max_roll_deg: float, height_range: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
     """3-point planes of ``pts`` that fit the prior: within ``limit`` radians of ``ref``, the roll and look-up
@@ -283,8 +315,10 @@ class _Search:
     """The candidate points of one frame's ground search and the prior they are searched with."""
 
     def __init__(self, cand: np.ndarray, focal_baseline: float, ref: np.ndarray, limit: float, max_roll_deg: float,
-                 iterations: int, rng: int, height_range: tuple[float, float], min_width: float) -> None:
+                 iterations: int, rng: int, height_range: tuple[float, float], min_width: float,
+                 fixed_up: bool = False) -> None:
         self.gen = np.random.default_rng(rng)
+        self.fixed_up = fixed_up                                   # ``ref`` is the ground's up: search offsets
         every = -(-len(cand) // MAX_POINTS)
         self.cand = cand[::every]                                  # every k-th: at most MAX_POINTS (the cost)
         self.min_support = max(30 / every, 0.15 * len(self.cand))  # 30 of all the candidates, and 15 %
@@ -300,8 +334,11 @@ class _Search:
         rest = np.nonzero(mask)[0]
         if len(rest) < 3:                # fewer may still make a plane whose inliers (all of them) are enough
             return None, explained
-        normals, offsets = _hypotheses(cand[rest], self.gen, self.iterations, self.ref, self.limit,
-                                       self.max_roll_deg, self.height_range)
+        if self.fixed_up:
+            normals, offsets = _level_hypotheses(cand[rest], self.ref, self.height_range)
+        else:
+            normals, offsets = _hypotheses(cand[rest], self.gen, self.iterations, self.ref, self.limit,
+                                           self.max_roll_deg, self.height_range)
         if not len(normals):
             return None, explained
         # Score: the points of ``mask`` within a plane's band, less those below it. Nothing lies under the
@@ -309,7 +346,10 @@ class _Search:
         # floor under it, loses to the floor. Only those nearer than the plane's own points (their mean depth):
         # beyond a floor's far edge a drop-off may lie below it.
         k = score_hypotheses(cand, band, mask, normals, offsets)
-        up, h, inl = _refit(cand, band, normals[k], float(offsets[k]), self.ref)
+        if self.fixed_up:
+            up, h, inl = _refit_offset(cand, band, self.ref, float(offsets[k]))
+        else:
+            up, h, inl = _refit(cand, band, normals[k], float(offsets[k]), self.ref)
         hyp = np.empty(len(cand), np.bool_)
         inlier_mask(cand, band, normals[k], float(offsets[k]), hyp)
         explained = inl | hyp
@@ -326,8 +366,8 @@ class _Search:
             reason = "too small"
         elif plane is None or not self.height_range[0] <= h <= self.height_range[1]:
             reason = "height"
-        elif up @ self.ref < math.cos(self.limit) or abs(plane.roll_deg) > self.max_roll_deg \
-                or plane.pitch_deg < -5.0:
+        elif not self.fixed_up and (up @ self.ref < math.cos(self.limit) or abs(plane.roll_deg) > self.max_roll_deg
+                                    or plane.pitch_deg < -5.0):
             reason = "tilt"
         elif n_below > 0.5 * n_in:
             reason = "points below it"
@@ -362,8 +402,8 @@ class _Search:
 
 def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane | None = None,
                max_tilt_deg: float = 35.0, max_roll_deg: float = 15.0, iterations: int = 64, rng: int = 0,
-               height_range: tuple[float, float] = ESTIMATED_HEIGHT_RANGE, min_width: float = 1.0
-               ) -> GroundPlane | None:
+               height_range: tuple[float, float] = ESTIMATED_HEIGHT_RANGE, min_width: float = 1.0,
+               up: np.ndarray | None = None) -> GroundPlane | None:
     """The ground plane of one frame, or None when the points show none that fits a carried camera.
 
     Parameters
@@ -383,6 +423,12 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
     min_width : float, metres
         The ground's points must span this much across (5th to 95th percentile): a walking corridor fits on
         it (a desk top beside a person, a stair tread seen end-on do not make a ground).
+    up : (3,) array, optional
+        The ground's up vector when it is known (a given camera pitch, an IMU's gravity): only the offset is
+        searched, at every offset 1 cm apart where a candidate lies (no random draw; ``iterations`` and
+        ``rng`` are unused), and the tilt, roll and look-up limits do not apply. Without it a plane tilted
+        against the true one would be fitted and only its normal replaced: the stairs seen from their top
+        make a plane along the nosings, and that plane's height under the camera is not the landing's.
 
     Returns
     -------
@@ -400,16 +446,24 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
     xyz, uv = points.xyz, points.uv
     if points.textured is not None:
         xyz, uv = xyz[points.textured], uv[points.textured]
+    if up is not None:
+        given = np.asarray(up, np.float64).reshape(3)
+        given = given / np.linalg.norm(given)
     if prior is not None:
         cand = xyz[(np.abs(prior.heights(xyz)) < 0.3) & (xyz[:, 2] < 4.0)]
         ref, limit = prior.up, math.radians(max_tilt_deg / 2)
     else:
-        cy = median(uv[:, 1]) if len(uv) else 0.0
-        cand = xyz[(uv[:, 1] > cy) & (xyz[:, 1] > 0.05) & (xyz[:, 2] < 4.0)]
         ref, limit = np.array([0.0, -1.0, 0.0]), math.radians(max_tilt_deg)
+        if up is not None:
+            ref = given
+        cy = median(uv[:, 1]) if len(uv) else 0.0
+        cand = xyz[(uv[:, 1] > cy) & (xyz @ ref < -0.05) & (xyz[:, 2] < 4.0)]     # below the camera, near
+    if up is not None:
+        ref = given
     if len(cand) < 30:
         return None
-    search = _Search(cand, focal_baseline, ref, limit, max_roll_deg, iterations, rng, height_range, min_width)
+    search = _Search(cand, focal_baseline, ref, limit, max_roll_deg, iterations, rng, height_range, min_width,
+                     fixed_up=up is not None)
     surfaces = [s for s in search.surfaces() if not s.reason]
     if not surfaces:
         return None
@@ -425,6 +479,11 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
         ground = max(lower, key=lambda s: s.score)
     support = int((np.abs(cand @ ground.up + ground.height_m) < _band(cand[:, 2], focal_baseline)).sum())
     return GroundPlane(ground.up, ground.height_m, "fitted", support)
+
+
+#: Points within this distance (metres) of a known drop-off edge are not the walker's ground: the edge is the far
+#: end of the ground seen (its 99th percentile, in 10 cm bins), and the depth noise there is a few centimetres.
+EDGE_MARGIN_M = 0.2
 
 
 class GroundTracker:
@@ -461,17 +520,31 @@ class GroundTracker:
             return None
         return GroundPlane(up, height, plane.source, plane.inliers)
 
-    def update(self, points: PointSample, focal_baseline: float) -> GroundPlane | None:
-        """The ground of this frame (None until a first plane is known)."""
+    def update(self, points: PointSample, focal_baseline: float, *, before_m: float | None = None
+               ) -> GroundPlane | None:
+        """The ground of this frame (None until a first plane is known).
+
+        ``before_m``: a drop-off edge is known this far ahead (metres, along the current plane). The walker's
+        ground then is what lies before it: only the points nearer than the edge (by ``EDGE_MARGIN_M``) are
+        fitted, and a plane that disagrees with the current one is not adopted however long it lasts (it is
+        the level past the edge, or a compromise between both levels).
+        """
         self._frame += 1
         if self.params.camera_height is not None and self.params.camera_pitch is not None:
             self.plane = self._given(None)
             return self.plane
         prior = self.plane
-        width = self.params.corridor_width                  # the walking corridor must fit on the ground
-        fit = fit_ground(points, focal_baseline, prior=prior, rng=self._frame, min_width=width)
-        if fit is None and prior is not None and self.plane is not None:
-            fit = fit_ground(points, focal_baseline, prior=None, rng=self._frame, min_width=width)   # moved a lot
+        holding = before_m is not None and prior is not None
+        if holding:
+            near = prior.to_ground(points.xyz)[:, 1] < before_m - EDGE_MARGIN_M
+            points = PointSample(points.uv[near], points.xyz[near], points.stride, points.focal_px,
+                                 None if points.textured is None else points.textured[near])
+        kw = {"rng": self._frame, "min_width": self.params.corridor_width}  # the walking corridor fits on it
+        if self.params.camera_pitch is not None:   # the ground's up is known: search its offset only
+            kw["up"] = GroundPlane.from_mounting(1.0, self.params.camera_pitch).up
+        fit = fit_ground(points, focal_baseline, prior=prior, **kw)
+        if fit is None and prior is not None and not holding:
+            fit = fit_ground(points, focal_baseline, prior=None, **kw)   # moved a lot
         fit = self._given(fit)
         if fit is None:
             if self.plane is not None:
@@ -488,7 +561,7 @@ class GroundTracker:
             up = (1 - a) * old.up + a * fit.up
             self.plane = GroundPlane(up, (1 - a) * old.height_m + a * fit.height_m, "fitted", fit.inliers)
         else:
-            self._disagree += 1
+            self._disagree += 0 if holding else 1
             if self._disagree >= self.switch_after:
                 self._disagree = 0
                 self.plane = fit

@@ -1,8 +1,8 @@
 """Tracks over frames: association (Hungarian assignment, ``scipy.optimize.linear_sum_assignment``), smoothing,
 approach speed and time to contact.
 
-Each frame's measurements (detected objects and obstacles, in ground coordinates) are matched to the tracks'
-predicted positions by the least total distance; a pair further apart than the gate (0.5 m plus 1.5 m/s times
+Each frame's measurements (detected objects, obstacles and drop-off edges, in ground coordinates) are matched
+to the tracks' predicted positions by the least total distance; a pair further apart than the gate (0.5 m plus 1.5 m/s times
 the time since the track was last seen, plus half the obstacle's size), or of different labels, is not matched.
 A track keeps its measurements of the last ``track_window`` seconds; a straight line fitted to their distances
 gives the smoothed distance (its value now) and the approach speed (minus its slope): a least-squares fit is
@@ -28,10 +28,14 @@ import numpy as np
 from stereo_classic.guide.obstacles import clock_of
 from stereo_classic.guide.params import GuideParams
 
-__all__ = ["MIN_APPROACH", "Measurement", "Track", "Tracker"]
+__all__ = ["DROP_HOLD_S", "MIN_APPROACH", "Measurement", "Track", "Tracker"]
 
 #: Approach speeds below this (m/s) are "not approaching": no time to contact.
 MIN_APPROACH = 0.2
+#: Seconds a drop-off track lives unseen while it is predicted ahead. An edge leaves the view before the walker
+#: reaches it (a camera 1.2 m up looking down 10 degrees with a 44-degree vertical field sees the ground from
+#: 1.9 m on): at 1.0-1.4 m/s that is 1.4-1.9 s of walking, and the edge is still there.
+DROP_HOLD_S = 3.0
 
 
 @dataclass(frozen=True)
@@ -40,8 +44,8 @@ class Measurement:
 
     Attributes
     ----------
-    kind : "object" (detector) or "obstacle" (depth only)
-    label : class name, or "obstacle"
+    kind : "object" (detector), "obstacle" (depth only) or "drop_off" (its edge)
+    label : class name, "obstacle" or "drop-off"
     lateral_m, forward_m : centre in the ground frame, metres
     nearest_m : horizontal distance of its nearest part, metres
     size_m : extent across, metres (widens the association gate)
@@ -91,6 +95,7 @@ class Track:
     ttc_s: float | None = None
     lateral_mps: float = 0.0
     forward_mps: float = 0.0
+    fitted: tuple[float, float] | None = None      # (lateral_m, forward_m) of the fitted lines at ``last_time``
 
     @property
     def clock(self) -> int:
@@ -99,6 +104,14 @@ class Track:
     def predict(self, time_s: float) -> tuple[float, float]:
         dt = time_s - self.last_time
         return self.last.lateral_m + self.lateral_mps * dt, self.last.forward_m + self.forward_mps * dt
+
+    def predict_fitted(self, time_s: float) -> tuple[float, float]:
+        """:meth:`predict` from the fitted lines' position instead of the last measurement (the mean of the last
+        ``track_window`` of them: what carries a track that is no longer seen); :meth:`predict` without a fit."""
+        if self.fitted is None:
+            return self.predict(time_s)
+        dt = time_s - self.last_time
+        return self.fitted[0] + self.lateral_mps * dt, self.fitted[1] + self.forward_mps * dt
 
 
 def _line(t: np.ndarray, y: np.ndarray, now: float) -> tuple[float, float]:
@@ -117,7 +130,8 @@ class Tracker:
     ----------
     params : GuideParams
         ``track_window`` (seconds of history fitted) and ``max_gap`` (a longer pause ends the tracks).
-    max_misses : int, frames a track survives unseen
+    max_misses : int, frames a track survives unseen; a drop-off's track instead lives unseen for
+        :data:`DROP_HOLD_S` seconds while its predicted edge is still ahead (:meth:`held`)
     """
 
     def __init__(self, params: GuideParams, *, max_misses: int = 3) -> None:
@@ -160,7 +174,8 @@ class Tracker:
         for t in tracks:
             if id(t) not in seen:
                 t.misses += 1
-        self.tracks = [t for t in tracks if t.misses <= self.max_misses]
+        self.tracks = [t for t in tracks if (self._ahead(t, time_s) if t.kind == "drop_off"
+                                             else t.misses <= self.max_misses)]
         for j, m in enumerate(measurements):
             if j not in matched_m:
                 t = Track(self._next_id, m.kind, m.label, m, time_s)
@@ -171,6 +186,14 @@ class Tracker:
         current = [t for t in self.tracks if t.last_time == time_s]
         current.sort(key=lambda t: t.nearest_m)
         return current
+
+    @staticmethod
+    def _ahead(t: Track, time_s: float) -> bool:
+        return t.misses == 0 or (time_s - t.last_time <= DROP_HOLD_S + 1e-9 and t.predict_fitted(time_s)[1] > 0.0)
+
+    def held(self, time_s: float) -> list[Track]:
+        """The drop-off tracks not seen at ``time_s`` but kept (their edge predicted ahead)."""
+        return [t for t in self.tracks if t.kind == "drop_off" and t.last_time != time_s]
 
     def _add(self, track: Track, m: Measurement, time_s: float) -> None:
         track.last, track.last_time = m, time_s
@@ -190,12 +213,14 @@ class Tracker:
             t = arr[:, 0]
             track.distance_m, slope = _line(t, arr[:, 1], now)
             track.nearest_m, _ = _line(t, arr[:, 2], now)
-            _, track.lateral_mps = _line(t, arr[:, 3], now)
-            _, track.forward_mps = _line(t, arr[:, 4], now)
+            lat, track.lateral_mps = _line(t, arr[:, 3], now)
+            fwd, track.forward_mps = _line(t, arr[:, 4], now)
+            track.fitted = (lat, fwd)
             track.approach_mps = -slope
         else:
             track.distance_m, track.nearest_m = m.distance_m, m.nearest_m
             track.approach_mps = None
+            track.fitted = None
         track.nearest_m = min(track.nearest_m, track.distance_m)
         a = track.approach_mps
         track.ttc_s = track.nearest_m / a if a is not None and a > MIN_APPROACH and track.nearest_m > 0 else None

@@ -64,6 +64,17 @@ def floor(*, step_at: float | None = None, step_down: float = 0.3, seed: int = 1
     return [Box(-40, 40, -1, 0, -1, step_at, seed), Box(-40, 40, -1 - step_down, -step_down, step_at, 60, seed + 1)]
 
 
+def stairs_down(landing: float = 1.0, *, tread: float = 0.28, riser: float = 0.17, steps: int = 14,
+                seed: int = 100) -> list[Box]:
+    """A landing (top face at y = 0) up to ``landing`` metres ahead, then a flight of ``steps`` stairs down
+    (``tread`` deep, ``riser`` high each), as wide as the floor; the last step runs on as the floor below."""
+    boxes = [Box(-40, 40, -1, 0, -1, landing, seed)]
+    for k in range(1, steps + 1):
+        z0 = landing + tread * (k - 1)
+        boxes.append(Box(-40, 40, -1 - riser * k, -riser * k, z0, z0 + tread if k < steps else 60, seed + k))
+    return boxes
+
+
 def render(boxes: list[Box], *, width: int = 320, height: int = 240, focal_px: float = 300.0,
            baseline_m: float = 0.12, cam_height: float = 1.2, pitch_deg: float = 15.0,
            background: float = 110.0, supersample: int = 2):

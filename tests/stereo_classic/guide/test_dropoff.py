@@ -75,3 +75,14 @@ def test_floor_seen_under_a_raised_surface_is_not_a_drop_off(pitch, near):
     step = find_dropoff(gp[low], sample.footprint()[low], params, camera_height=1.2)
     assert step is not None and step.distance_m == pytest.approx(near, rel=0.15)
     assert step.drop_m == pytest.approx(0.55, abs=0.05)
+
+
+def test_edge_seen_only_with_ground_before_it():
+    """With the ground seen in front of the edge, the edge is measured; with only the lower level in view (the
+    edge nearer than the view, 0.8 m here), the distance is the nearest ray's crossing of the ground, not seen."""
+    pts, area = _ground(2.0, 0.3)
+    seen = find_dropoff(pts, area, GuideParams(), camera_height=1.2)
+    assert seen is not None and seen.edge_seen and not seen.predicted
+    pts, area = _ground(0.5, 0.3)
+    unseen = find_dropoff(pts, area, GuideParams(), camera_height=1.2)
+    assert unseen is not None and not unseen.edge_seen

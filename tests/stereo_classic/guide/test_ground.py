@@ -77,6 +77,31 @@ def test_given_height_and_pitch_replace_the_fit():
     assert only_h.height_m == 1.1 and only_h.pitch_deg == pytest.approx(12.0, abs=1.0)
 
 
+@pytest.mark.parametrize("landing, pitch, expected_level", [(1.0, 40.0, 2), (1.5, 30.0, 0)])
+def test_given_pitch_fits_the_height_along_it(landing, pitch, expected_level):
+    """Stairs down seen from their top (camera 1.5 m up): the free fit takes a plane along the nosings for a level
+    floor about 0.8 m down (the premise); with the pitch given, the ground is a level of the stairs, the same
+    for every seed (every offset is tried, nothing is drawn): the landing 1.5 m down where it holds the most
+    points, else the lowest large tread (the rule that takes the floor under a table: the landing then stands
+    above it, an obstacle at the feet)."""
+    from stereo_classic.guide.ground import sample_points
+    from tests.helpers import walk_scenes as ws
+
+    left, _, depth, rig = ws.render(ws.stairs_down(landing), supersample=1, cam_height=1.5, pitch_deg=pitch)
+    fb = rig.focal_px * rig.baseline_m
+    sample = sample_points((fb / depth).astype(np.float32), rig, stride=2, image=left)
+    free = fit_ground(sample, fb)
+    assert free is None or abs(free.height_m - 1.5) > 0.3 or abs(free.pitch_deg - pitch) > 5.0
+    up = GroundPlane.from_mounting(1.0, pitch).up
+    fits = [fit_ground(sample, fb, up=up, rng=seed) for seed in range(3)]
+    assert all(f is not None and f.height_m == fits[0].height_m for f in fits)
+    level = (fits[0].height_m - 1.5) / 0.17                                 # treads 0.17 m apart under the landing
+    assert abs(level - round(level)) * 0.17 < 0.03 and fits[0].pitch_deg == pytest.approx(pitch, abs=1e-6)
+    assert round(level) == expected_level
+    tracked = GroundTracker(GuideParams(camera_pitch=pitch)).update(sample, fb)
+    assert tracked.height_m == pytest.approx(fits[0].height_m, abs=0.03) and tracked.pitch_deg == pytest.approx(pitch)
+
+
 def test_textureless_samples_do_not_make_the_ground():
     """A level 'floor' 0.5 m under the camera from a white wall's propagated depths loses to the textured floor."""
     sample, _ = _floor_sample(1.3, 12.0, n=1500)

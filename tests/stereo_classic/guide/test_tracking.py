@@ -51,3 +51,29 @@ def test_short_history_has_no_speed_and_lost_tracks_end():
     assert tracker.tracks == []
     (new,) = tracker.update([_m("dog", 0.0, 2.0)], 0.5)
     assert new.track_id == 2                                       # ids are not reused
+
+
+def test_a_drop_off_is_kept_unseen_while_ahead():
+    """A drop-off edge coming closer at 1 m/s, then out of view: its track lives on while predicted ahead (at most
+    DROP_HOLD_S), an obstacle's ends after max_misses frames."""
+    from stereo_classic.guide.tracking import DROP_HOLD_S
+
+    tracker = Tracker(GuideParams())
+    for i in range(6):
+        t = 0.1 * i
+        tracker.update([Measurement("drop_off", "drop-off", 0.0, 2.5 - t, 2.5 - t, 1.0),
+                        Measurement("obstacle", "obstacle", 1.0, 3.0, 3.0)], t)
+    for i in range(6, 20):                                   # neither seen; the edge reaches the feet at 2.5 s
+        tracker.update([], 0.1 * i)
+        kinds = {tr.kind for tr in tracker.tracks}
+        assert "drop_off" in kinds and ("obstacle" in kinds) == (i - 5 <= tracker.max_misses)
+        (held,) = tracker.held(0.1 * i)
+        assert held.predict_fitted(0.1 * i)[1] == pytest.approx(2.5 - 0.1 * i, abs=0.05)
+    tracker.update([], 2.6)                                  # predicted behind the walker: ended
+    assert not tracker.tracks
+    still = Tracker(GuideParams())
+    still.update([Measurement("drop_off", "drop-off", 0.0, 2.0, 2.0, 1.0)], 0.0)
+    still.update([], DROP_HOLD_S)
+    assert len(still.tracks) == 1
+    still.update([], DROP_HOLD_S + 0.1)                      # not approached, but unseen for too long
+    assert not still.tracks
