@@ -313,7 +313,7 @@ class Guide:
         t = min(held, key=lambda t: t.predict_fitted(time_s)[1])
         lat, fwd = t.predict_fitted(time_s)
         return DropOff(distance_m=math.hypot(lat, fwd), bearing_deg=0.0, lateral_m=lat, forward_m=fwd,
-                       drop_m=self._drop_m, predicted=True), t
+                       drop_m=self._drop_m, edge_seen=False, predicted=True), t
 
     def _edge_points(self, d: DropOff) -> np.ndarray:
         """Points along a drop-off's edge, across the corridor (they block the free distance)."""
