@@ -79,11 +79,11 @@ class GuideFrame:
     ground : GroundPlane or None
     obstacles : list of Obstacle, in the corridor, nearest first (those a detected object explains left out)
     grid : OccupancyGrid or None
-    dropoff : DropOff or None, straight ahead (the corridor)
+    dropoff : DropOff or None, straight ahead (the corridor): seen, or where its track puts it (``predicted``)
     hours : (K,) int, clock hours inside the field of view ; free_m : (K,) float, metres free along each
     clear_clock : int or None, the hour with the longest free distance (ties: the one nearest to 12)
     sectors_deg : (S,) float, haptic sector centres ; haptics : (S,) float in [0, 1], 1 = blocked at the feet
-    tracks : list of TrackView seen in this frame ; events : list of Event ; notes : tuple of str
+    tracks : list of TrackView (objects and obstacles) seen in this frame ; events : list of Event ; notes : tuple of str
     obstacle_uv : (M, 2) float64, left-image pixels (column, row) of the obstacle points in the corridor
     """
 
