@@ -90,16 +90,16 @@ def test_step_down_distance():
     assert event.priority == "warning" and event.text.startswith("drop-off, 12 o'clock, ")
 
 
-@pytest.mark.parametrize("scene, pitch, tolerance", [("kerb", 10.0, 0.15), ("kerb", 20.0, 0.15),
-                                                    ("stairs", 10.0, 0.25)])
-def test_walking_to_a_drop_off_and_down_it(scene, pitch, tolerance):
+@pytest.mark.parametrize("scene, pitch, given, tolerance", [("kerb", 10.0, False, 0.15), ("kerb", 20.0, False, 0.15),
+                                                           ("kerb", 10.0, True, 0.15), ("stairs", 10.0, False, 0.25)])
+def test_walking_to_a_drop_off_and_down_it(scene, pitch, given, tolerance):
     """A 0.15 m kerb (or a flight of stairs, 0.17 m risers) 4.6 m ahead, walked to at 1 m/s (5 frames/s) and past.
     Before this change the fit took a plane between both levels from 3.2 m on (kerb, 10 degrees) and the
     drop-off was lost for the last 3 m. Now the ground is held while the edge is tracked ahead, and once the edge
     leaves the view (at 10 degrees the camera sees the ground from 1.9 m on) its track carries it to the feet,
     a little far (after 2 s of prediction up to 0.1 m on the kerb, 0.2 m on the stairs, whose edge speed is
-    measured 5 % low); past the edge the lower level becomes the ground."""
-    guide, loc, frames = Guide(), None, []
+    measured 5 % low); past the edge the lower level becomes the ground. ``given``: with ``camera_pitch``."""
+    guide, loc, frames = Guide(camera_pitch=pitch if given else None), None, []
     for i in range(30):
         t = 0.2 * i
         edge = 4.6 - t
