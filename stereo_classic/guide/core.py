@@ -220,6 +220,8 @@ class Guide:
             plane = None
         else:
             plane = self.ground.update(points, fb, before_m=self._edge_ahead(time_s))
+            if self.ground.switched:  # a drop-off was measured against the old plane: it must be seen again
+                self.tracker.tracks = [t for t in self.tracker.tracks if t.kind != "drop_off"]
         left_b = math.degrees(math.atan2(-rig.cx_left, rig.focal_px))
         right_b = math.degrees(math.atan2(w - 1 - rig.cx_left, rig.focal_px))
         hours_b = np.array([b for b in (-60.0, -30.0, 0.0, 30.0, 60.0) if left_b - 5 <= b <= right_b + 5])

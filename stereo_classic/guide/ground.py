@@ -503,6 +503,7 @@ class GroundTracker:
         self.plane: GroundPlane | None = None
         self._disagree = 0
         self._frame = 0
+        self.switched = False       # whether the last update replaced the plane by a disagreeing one
 
     def reset(self) -> None:
         self.plane = None
@@ -526,10 +527,13 @@ class GroundTracker:
 
         ``before_m``: a drop-off edge is known this far ahead (metres, along the current plane). The walker's
         ground then is what lies before it: only the points nearer than the edge (by ``EDGE_MARGIN_M``) are
-        fitted, and a plane that disagrees with the current one is not adopted however long it lasts (it is
-        the level past the edge, or a compromise between both levels).
+        fitted: neither the level past the edge nor a plane between both levels is taken for it. A plane that
+        disagrees with the current one is still adopted after ``switch_after`` frames (the near ground itself
+        changed: a step up was reached); :attr:`switched` says so, since what was measured against the old plane
+        (a drop-off) no longer holds.
         """
         self._frame += 1
+        self.switched = False
         if self.params.camera_height is not None and self.params.camera_pitch is not None:
             self.plane = self._given(None)
             return self.plane
@@ -543,7 +547,7 @@ class GroundTracker:
         if self.params.camera_pitch is not None:   # the ground's up is known: search its offset only
             kw["up"] = GroundPlane.from_mounting(1.0, self.params.camera_pitch).up
         fit = fit_ground(points, focal_baseline, prior=prior, **kw)
-        if fit is None and prior is not None and not holding:
+        if fit is None and prior is not None:
             fit = fit_ground(points, focal_baseline, prior=None, **kw)   # moved a lot
         fit = self._given(fit)
         if fit is None:
@@ -561,10 +565,11 @@ class GroundTracker:
             up = (1 - a) * old.up + a * fit.up
             self.plane = GroundPlane(up, (1 - a) * old.height_m + a * fit.height_m, "fitted", fit.inliers)
         else:
-            self._disagree += 0 if holding else 1
+            self._disagree += 1
             if self._disagree >= self.switch_after:
                 self._disagree = 0
                 self.plane = fit
+                self.switched = True
             else:
                 self.plane = GroundPlane(old.up, old.height_m, "kept", 0)
         return self.plane

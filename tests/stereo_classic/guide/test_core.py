@@ -125,6 +125,25 @@ def test_walking_to_a_drop_off_and_down_it(scene, pitch, given, tolerance):
         assert past[-1].ground.height_m == pytest.approx(1.35, abs=0.05)      # the lower level, now underfoot
 
 
+def test_walking_up_a_step_ends_in_its_level():
+    """A 0.15 m step up walked onto at 1 m/s: once on it (the edge behind), its level is the ground and nothing
+    from before (a drop-off measured against the old plane, or a held one) is said. A drop-off track that held
+    the ground and never let it go made a drop-off and an obstacle ahead in every frame after the step."""
+    guide, loc, past = Guide(), None, []
+    for i in range(24):
+        t = 0.2 * i
+        edge = 3.0 - t
+        boxes = ws.floor() + [ws.Box(-40, 40, 0.0, 0.15, edge, 60, seed=120)]
+        left, right, _, rig = ws.render(boxes, supersample=1, **ws.CAMERA)
+        loc = loc or Localizer(rig, None, PARAMS, **NO_CHECKS)
+        frame = guide.update(loc(left, right), rig, t, frame=str(i))
+        if edge < -0.5:
+            past.append(frame)
+    loc.close()
+    assert past and all(f.dropoff is None and not f.obstacles for f in past)
+    assert all(f.ground.height_m == pytest.approx(1.05, abs=0.05) for f in past)
+
+
 def test_head_height_bar_and_detected_object():
     bar = ws.Box(-0.6, 0.6, 1.55, 1.7, 3.5, 3.6, seed=9)                 # at the top of the view
     chair = ws.Box(0.5, 1.0, 0.0, 0.9, 2.0, 2.4, seed=11)               # right of the corridor
