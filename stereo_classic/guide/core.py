@@ -265,7 +265,7 @@ class Guide:
         tracks = self.tracker.update(measurements, time_s)
         drop_track = next((t for t in tracks if t.kind == "drop_off"), None)
         if plane is not None and dropoff is None:
-            dropoff, drop_track = self._predicted_dropoff(time_s)
+            dropoff, drop_track = self._predicted_dropoff(time_s, gl, al)
             if dropoff is not None:
                 blocked = np.vstack([blocked, self._edge_points(dropoff)])
         first = self.frames == 1
@@ -307,13 +307,24 @@ class Guide:
         ahead = [f for f in ahead if f > 0.0]
         return min(ahead) if ahead else None
 
-    def _predicted_dropoff(self, time_s: float) -> tuple[DropOff | None, Track | None]:
-        """The drop-off of a track kept unseen (its edge predicted ahead), where its track puts it now."""
+    def _predicted_dropoff(self, time_s: float, low: np.ndarray, area: np.ndarray
+                           ) -> tuple[DropOff | None, Track | None]:
+        """The drop-off of a track kept unseen (its edge predicted ahead), where its track puts it now; None, and
+        the track ended, when this frame contradicts it: beyond the predicted edge the corridor shows more ground
+        at the walker's level than below it (``low``: ground-frame points below half a step up, ``area`` theirs;
+        the walker turned away, or the edge was a mistake)."""
+        p = self.params
         held = [t for t in self.tracker.held(time_s) if t.predict_fitted(time_s)[1] > 0.0]
         if not held:
             return None, None
         t = min(held, key=lambda t: t.predict_fitted(time_s)[1])
         lat, fwd = t.predict_fitted(time_s)
+        beyond = (np.abs(low[:, 0]) < p.corridor_width / 2) & (low[:, 1] > fwd) & (low[:, 1] < p.look_ahead)
+        level = beyond & (low[:, 2] > -p.step_height / 2)
+        below = beyond & (low[:, 2] < -p.step_height)
+        if area[level].sum() > area[below].sum():
+            self.tracker.tracks = [k for k in self.tracker.tracks if k is not t]
+            return None, None
         return DropOff(distance_m=math.hypot(lat, fwd), bearing_deg=0.0, lateral_m=lat, forward_m=fwd,
                        drop_m=self._drop_m, edge_seen=False, predicted=True), t
 

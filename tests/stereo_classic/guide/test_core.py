@@ -125,6 +125,23 @@ def test_walking_to_a_drop_off_and_down_it(scene, pitch, given, tolerance):
         assert past[-1].ground.height_m == pytest.approx(1.35, abs=0.05)      # the lower level, now underfoot
 
 
+def test_a_drop_off_out_of_view_is_dropped_when_the_view_contradicts_it():
+    """Walking to a kerb until its edge is out of view (1.6 m), then turned away (a flat floor ahead): the
+    predicted edge would lie where level ground is now seen, so it is not said (before: for up to 3 s)."""
+    guide, loc, frames = Guide(), None, []
+    for i in range(20):
+        t = 0.2 * i
+        edge = 4.6 - t
+        left, right, _, rig = ws.still([], step_at=edge if edge > 1.5 else None, step_down=0.15)
+        loc = loc or Localizer(rig, None, PARAMS, **NO_CHECKS)
+        frames.append((edge, guide.update(loc(left, right), rig, t, frame=str(i))))
+    loc.close()
+    assert frames[14][1].dropoff is not None and frames[14][1].dropoff.predicted      # edge at 1.8 m: carried
+    turned = [f for edge, f in frames if edge <= 1.5]
+    assert turned and all(f.dropoff is None for f in turned)
+    assert all(f.ground.height_m == pytest.approx(1.2, abs=0.05) for f in turned)
+
+
 def test_walking_up_a_step_ends_in_its_level():
     """A 0.15 m step up walked onto at 1 m/s: once on it (the edge behind), its level is the ground and nothing
     from before (a drop-off measured against the old plane, or a held one) is said. A drop-off track that held
