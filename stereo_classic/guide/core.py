@@ -214,14 +214,16 @@ class Guide:
         points = sample_points(disparity, rig, stride=stride, max_depth=max(2.5 * p.look_ahead, 10.0),
                                image=left if isinstance(left, np.ndarray) else None)
         codes = {getattr(w, "code", "") for w in getattr(result, "warnings", ()) or ()}
+        edge_ahead = self._edge_ahead(time_s)            # a tracked drop-off edge ahead, predicted to this frame
         if codes & _NOT_MEASURED:  # a swapped or mismatched pair: its depths are not the scene's
             notes.append("the left/right pair is swapped or not a pair: nothing measured in this frame")
             points = PointSample(np.zeros((0, 2)), np.zeros((0, 3)), stride, float(rig.focal_px))
             plane = None
         else:
-            plane = self.ground.update(points, fb, before_m=self._edge_ahead(time_s))
+            plane = self.ground.update(points, fb, before_m=edge_ahead)
             if self.ground.switched:  # a drop-off was measured against the old plane: it must be seen again
                 self.tracker.tracks = [t for t in self.tracker.tracks if t.kind != "drop_off"]
+                edge_ahead = None
         left_b = math.degrees(math.atan2(-rig.cx_left, rig.focal_px))
         right_b = math.degrees(math.atan2(w - 1 - rig.cx_left, rig.focal_px))
         hours_b = np.array([b for b in (-60.0, -30.0, 0.0, 30.0, 60.0) if left_b - 5 <= b <= right_b + 5])
@@ -246,8 +248,7 @@ class Guide:
             if edge_pts:
                 blocked = np.vstack([blocked] + edge_pts)
         measurements = self._measure_objects(result, rig, disparity, plane)
-        if dropoff is not None and not dropoff.edge_seen and (self._edge_ahead(time_s) is not None
-                                                              or plane.source == "kept"):
+        if dropoff is not None and not dropoff.edge_seen and (edge_ahead is not None or plane.source == "kept"):
             # No ground seen before it: with a tracked edge ahead, the edge has left the view and its track says
             # where it is (below); on a kept plane (this frame's fit disagreed) it is the level now underfoot.
             dropoff = None
@@ -314,7 +315,7 @@ class Guide:
         at the walker's level than below it (``low``: ground-frame points below half a step up, ``area`` theirs;
         the walker turned away, or the edge was a mistake)."""
         p = self.params
-        held = [t for t in self.tracker.held(time_s) if t.predict_fitted(time_s)[1] > 0.0]
+        held = self.tracker.held(time_s)        # the tracker keeps them only while predicted ahead
         if not held:
             return None, None
         t = min(held, key=lambda t: t.predict_fitted(time_s)[1])

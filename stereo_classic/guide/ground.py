@@ -446,20 +446,14 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
     xyz, uv = points.xyz, points.uv
     if points.textured is not None:
         xyz, uv = xyz[points.textured], uv[points.textured]
-    if up is not None:
-        given = np.asarray(up, np.float64).reshape(3)
-        given = given / np.linalg.norm(given)
+    given = None if up is None else np.asarray(up, np.float64).reshape(3) / np.linalg.norm(up)
     if prior is not None:
         cand = xyz[(np.abs(prior.heights(xyz)) < 0.3) & (xyz[:, 2] < 4.0)]
-        ref, limit = prior.up, math.radians(max_tilt_deg / 2)
+        ref, limit = prior.up if given is None else given, math.radians(max_tilt_deg / 2)
     else:
-        ref, limit = np.array([0.0, -1.0, 0.0]), math.radians(max_tilt_deg)
-        if up is not None:
-            ref = given
+        ref, limit = np.array([0.0, -1.0, 0.0]) if given is None else given, math.radians(max_tilt_deg)
         cy = median(uv[:, 1]) if len(uv) else 0.0
         cand = xyz[(uv[:, 1] > cy) & (xyz @ ref < -0.05) & (xyz[:, 2] < 4.0)]     # below the camera, near
-    if up is not None:
-        ref = given
     if len(cand) < 30:
         return None
     search = _Search(cand, focal_baseline, ref, limit, max_roll_deg, iterations, rng, height_range, min_width,
