@@ -15,6 +15,11 @@ a 1 px LR check; the matcher's cost and paths default to its own defaults (censu
 
 prints the thread-scaling table instead (:func:`thread_scaling`: the matcher's defaults and OpenCV
 MODE_SGBM_3WAY at 1..cores threads, plus 2, 4 and 8; the same function makes the report's table).
+
+    python -m benchmarks.sgm_speed --padding [--threads 1] [--paths 3] [--cost census+grad] [--repeat 11]
+
+times the matcher with the kernels' disparity padding (``padded_disparities``) and without it, interleaved in
+one process, for ranges of 16 to 128 (:func:`padding_table`); the output is checked to be the same.
 """
 
 from __future__ import annotations
@@ -34,6 +39,7 @@ __all__ = [
     "SCALING_METHODS",
     "load_kitti_grey",
     "main",
+    "padding_table",
     "opencv_runner",
     "run",
     "scaling_threads",
@@ -269,6 +275,44 @@ def thread_scaling(left: np.ndarray, right: np.ndarray, *, num_disparities: int 
     }
 
 
+def padding_table(left: np.ndarray, right: np.ndarray, *, disparities=(16, 32, 48, 64, 80, 96, 112, 128),
+                  threads: int = 1, paths: int = 3, cost: str = "census+grad", repeat: int = 11) -> list[dict]:
+    """Per number of disparities: ms of the matcher (its defaults but ``paths`` and ``cost``) with the kernels'
+    padding and without it (``DISPARITY_BLOCK`` and the least number set to 1 for those calls), both prepared
+    once and then called in turn ``repeat`` times (:func:`benchmarks.timing.time_interleaved`), and whether the
+    two disparity maps are identical."""
+    import stereo_classic as sc
+    from benchmarks.timing import time_interleaved
+    from stereo_classic.matching._kernels import core
+
+    saved = (core.DISPARITY_BLOCK, core.MIN_DISPARITIES_ONE_SWEEP)
+
+    def padding(on: bool) -> None:
+        core.DISPARITY_BLOCK, core.MIN_DISPARITIES_ONE_SWEEP = saved if on else (1, 1)
+
+    rows = []
+    try:
+        for n in disparities:
+            matcher = sc.StereoMatcher(sc.SGMParams(num_disparities=int(n), paths=paths, cost=cost, threads=threads))
+            outputs = {}
+
+            def call(on: bool, m=matcher, out=outputs):
+                padding(on)
+                out[on] = m.compute(left, right).disparity
+
+            padding(True)
+            padded_to = core.padded_disparities(n, paths)
+            timed = time_interleaved({"padded": lambda: call(True), "as is": lambda: call(False)}, repeat)
+            rows.append({"num_disparities": int(n), "padded_to": padded_to,
+                         "as_is_ms": timed["as is"].median_ms, "as_is_min_ms": timed["as is"].min_ms,
+                         "padded_ms": timed["padded"].median_ms, "padded_min_ms": timed["padded"].min_ms,
+                         "identical": bool(np.array_equal(outputs[True], outputs[False], equal_nan=True))})
+            matcher.release()
+    finally:
+        padding(True)
+    return rows
+
+
 def format_scaling(result: dict) -> str:
     """The thread-scaling result as a plain-text table."""
     lines = [(f"{result['width']}x{result['height']}, {result['num_disparities']} disparities, "
@@ -295,7 +339,17 @@ def main(argv=None) -> int:
     ap.add_argument("--gap-ms", type=float, default=50.0, help="pause before every timed call (default 50)")
     ap.add_argument("--lr-mode", default="full", choices=["full", "opencv"], help="LR check of the matcher (1 px)")
     ap.add_argument("--scaling", action="store_true", help="the thread-scaling table (matcher defaults and 3WAY)")
+    ap.add_argument("--padding", action="store_true", help="the matcher with and without its disparity padding")
     a = ap.parse_args(argv)
+    if a.padding:
+        left, right = load_kitti_grey(a.data)
+        print(f"KITTI pair {left.shape[1]}x{left.shape[0]}, {a.threads} thread(s), {a.paths} paths, {a.cost}, "
+              f"{a.repeat} calls each, interleaved: ms median (fastest)")
+        print(f"{'disparities':>11s} {'padded to':>9s} {'as is':>14s} {'padded':>14s}  identical")
+        for r in padding_table(left, right, threads=a.threads, paths=a.paths, cost=a.cost, repeat=a.repeat):
+            print(f"{r['num_disparities']:11d} {r['padded_to']:9d} {r['as_is_ms']:7.1f} ({r['as_is_min_ms']:5.1f}) "
+                  f"{r['padded_ms']:7.1f} ({r['padded_min_ms']:5.1f})  {'yes' if r['identical'] else 'NO'}")
+        return 0
     if a.scaling:
         left, right = load_kitti_grey(a.data)
         print(format_scaling(thread_scaling(left, right, num_disparities=a.disparities, repeat=a.repeat,

@@ -519,4 +519,5 @@ def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cove
             sums_row = Sf[_U(y * W * D):_U((y + 1) * W * D)] if keep_sums else Srow
             if right_view:
                 right_view_row(sums_row, rv, rd, W, D)
-            select_row(y, settings, dmin, sums_row, nsrow, kidx, rv, rd, best, counts, ccost, ck, out)
+            select_row(y, settings, dmin, cost.num_disparities, sums_row, nsrow, kidx, rv, rd, best, counts, ccost, ck,
+                       out)

@@ -62,7 +62,7 @@ __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume"
            "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
            "ALL_PATHS", "FOUR_PATHS", "THREE_PATHS", "PATH_NAMES", "PATH_STEPS", "PATH_MASKS",
            "STRIPE_ROWS", "WARMUP_ROWS", "stripes", "usable_cpus", "run_chained", "run_stripes", "run_tasks",
-           "scratch_allocator", "workers_for"]
+           "scratch_allocator", "workers_for", "DISPARITY_BLOCK", "MIN_DISPARITIES_ONE_SWEEP", "padded_disparities"]
 
 #: ``paths`` (the number of aggregation directions) -> the direction mask of the passes.
 PATH_MASKS = {8: ALL_PATHS, 4: FOUR_PATHS, 3: THREE_PATHS}
@@ -80,6 +80,33 @@ PATH_MASKS = {8: ALL_PATHS, 4: FOUR_PATHS, 3: THREE_PATHS}
 #: within 0.15, but Cones 8.31 -> 9.00 (`python -m benchmarks --methods sc-default --quick`): kept at 16.
 STRIPE_ROWS = 48
 WARMUP_ROWS = 16
+
+
+#: The kernels hold the disparities of a pixel in whole vector blocks: ``padded_disparities``. LLVM turns each
+#: loop over a pixel's disparities into vector loops and a remainder that runs element by element; the remainder
+#: costs more than computing padding. The indices past the range hold the invalid cost: they never win and never
+#: change a path value in range, so the output is the same bit for bit (tested).
+DISPARITY_BLOCK = 32
+#: The least disparities per pixel of the one-sweep kernel (paths=3): below 64 its loops miss their main vector
+#: loop (64 int16 an iteration on AVX-512); padding is cheap there (row buffers in cache), while the volume
+#: kernels (4 and 8 paths) write every padded disparity to the sum volume and keep DISPARITY_BLOCK.
+MIN_DISPARITIES_ONE_SWEEP = 64
+
+
+def padded_disparities(num_disparities: int, paths: int = 3) -> int:
+    """The disparities per pixel in the kernels' buffers: ``num_disparities`` rounded up to DISPARITY_BLOCK (paths 3:
+    at least MIN_DISPARITIES_ONE_SWEEP). Measured on the KITTI pair at 1 thread, ms, as it is / padded (Zen 4,
+    interleaved in one process; the default matcher): 16: 72 / 54, 32: 67 / 53, 48: 78 / 49, 64: 49 / 49,
+    80: 64 / 64, 96: 63 / 64, 112: 72 / 68, 128: 72 / 71; census 8 paths: 16: 155 / 68, 32 and 96 the same.
+
+    >>> [padded_disparities(n) for n in (16, 48, 64, 80, 96, 112, 128)]
+    [64, 64, 64, 96, 96, 128, 128]
+    >>> [padded_disparities(n, paths=8) for n in (16, 48, 64)]
+    [32, 64, 64]
+    """
+    block = DISPARITY_BLOCK
+    least = MIN_DISPARITIES_ONE_SWEEP if paths == 3 else block
+    return max(least, -(-int(num_disparities) // block) * block)
 
 
 def stripes(height: int) -> list[tuple[int, int]]:
@@ -157,14 +184,21 @@ def _row_cost_buffers(W: int, D: int, kind: int, h: int) -> RowCostBuffers:
     return RowCostBuffers(
         colsum=np.zeros((W + 2 * h) * D if grad else 1, np.int16), hsum=np.zeros(D, np.int16),
         rrev=np.zeros(4 * (W + D - 1) if kind != SAD else 1, np.uint16),
-        srev=np.zeros(L if grad else 1, np.int16), irev=np.zeros(L if kind == SAD else 1, np.int16))
+        srev=np.zeros(L if grad else 1, np.int16), irev=np.zeros(L if kind == SAD else 1, np.int16),
+        floor=np.zeros(D, np.int16))
+
+
+def _set_floor(bufs: RowCostBuffers, settings: CostSettings) -> None:
+    """The cost floor of ``bufs``: 0 in the range, the invalid cost on the padding past it."""
+    bufs.floor[:settings.num_disparities] = 0
+    bufs.floor[settings.num_disparities:] = settings.invalid_cost
 
 
 def _row_cost_bytes(W: int, D: int, kind: int, h: int) -> int:
     grad = kind != CENSUS
     L = 2 * (W + 2 * h + D - 1)
     return (2 * (W + 2 * h) * D if grad else 2) + 2 * D + (8 * (W + D - 1) if kind != SAD else 2) + \
-        (2 * L if grad else 2) + (2 * L if kind == SAD else 2)
+        (2 * L if grad else 2) + (2 * L if kind == SAD else 2) + 2 * D
 
 
 def _reset_row_pass(b: RowPassBuffers, D: int) -> None:
@@ -235,9 +269,10 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     cost inputs (census codes or prefiltered images) and per-thread row buffers (about
     2 * (D + 2) * (3 W + 3 H) bytes per worker thread, at most one worker per stripe). 3 paths (the one-sweep
     kernel): no volume, W x D row buffers, the costs of WARMUP_ROWS rows and the top path's skewed vectors per
-    worker (about 2 * D * (20 W + H) bytes). ``lr_check`` does not change it.
+    worker (about 2 * D * (20 W + H) bytes). ``lr_check`` does not change it. D is the padded number
+    (``padded_disparities``).
     """
-    H, W, D = int(height), int(width), int(num_disparities)
+    H, W, D = int(height), int(width), padded_disparities(num_disparities, paths)
     kind = _KIND.get(cost, CENSUS)
     h = block_size // 2 if kind != CENSUS else 0
     E = D + 2
@@ -317,7 +352,9 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     check_penalties(cost, block_size, census_window, int(p1), int(p2), weak_texture_gain)
     kind = _KIND[cost]
     H, W = left.shape
-    D = int(num_disparities)
+    n_disp = int(num_disparities)
+    one_sweep = path_mask == THREE_PATHS  # left, top, right: the one-sweep kernel, no sum volume
+    D = padded_disparities(n_disp, 3 if one_sweep else 8)  # per pixel in the buffers: the range, then padding
     dmin = int(min_disparity)
     h = block_size // 2 if kind != CENSUS else 0
     # the SAD cost's scaling and the invalid cost leave room for the largest P2 at a pixel (times the weak-texture
@@ -326,7 +363,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     shift, cmax = cost_scale(cost, block_size, census_window, p2_top)
     p1s, p2s = int(p1) >> shift, int(p2) >> shift
     cost_settings = CostSettings(kind=kind, min_disparity=dmin, half_block=h, shift=shift, cmax=cmax,
-                                 invalid_cost=cmax + 2 * (p2_top >> shift) + 1,
+                                 invalid_cost=cmax + 2 * (p2_top >> shift) + 1, num_disparities=n_disp,
                                  grad_mul=grad_mul(block_size) if cost == "census+grad" else 0)
     timings = {}
 
@@ -337,7 +374,6 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
 
     bands = stripes(H)
     n_workers = workers_for(threads, len(bands))
-    one_sweep = path_mask == THREE_PATHS  # left, top, right: the one-sweep kernel, no sum volume
     key = (one_sweep, bool(keep_sums), H, W, D, kind, h, n_workers)
     if workspace is not None and workspace.fits(*key):
         S, bufs = workspace.S, workspace.bufs
@@ -352,6 +388,8 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
                 for _ in range(n_workers)]
         if workspace is not None:
             workspace.keep(S, bufs, key)
+    for cbufs, _ in bufs:
+        _set_floor(cbufs, cost_settings)
     counters = [b[1].counts for b in bufs]  # pixels rejected by uniqueness, by the LR check
     for c in counters:
         c[:] = 0
@@ -408,7 +446,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     timings["select"] = 0.0  # fused into the second phase of "aggregate"
     timings["n_failed_uniqueness"] = int(sum(int(c[0]) for c in counters))
     timings["n_failed_lr"] = int(sum(int(c[1]) for c in counters))
-    return disp, (dispR if right_view else None), S[:H], timings
+    return disp, (dispR if right_view else None), (S[:H, :, :n_disp] if S.ndim == 3 else S), timings
 
 
 _log = logging.getLogger("stereo_classic")
@@ -531,13 +569,16 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
         raise ValueError(f"`cost` must be one of {sorted(_KIND)}, got {cost!r}")
     kind = _KIND[cost]
     H, W = left.shape
-    D = int(num_disparities)
+    n_disp = int(num_disparities)
+    D = padded_disparities(n_disp)  # as the one-sweep kernel holds them
     shift, cmax = cost_scale(cost, block_size, census_window, int(p2))
     settings = CostSettings(kind=kind, min_disparity=int(min_disparity),
                             half_block=block_size // 2 if kind != CENSUS else 0, shift=shift, cmax=cmax,
-                            invalid_cost=cmax + 2 * (int(p2) >> shift) + 1,
+                            invalid_cost=cmax + 2 * (int(p2) >> shift) + 1, num_disparities=n_disp,
                             grad_mul=grad_mul(block_size) if cost == "census+grad" else 0)
     images = _prepare_cost(left, right, cost, census_window)
     out = np.empty((H, W, D), np.int16)
-    cost_volume_kernel(images, settings, _row_cost_buffers(W, D, kind, settings.half_block), out)
-    return out
+    bufs = _row_cost_buffers(W, D, kind, settings.half_block)
+    _set_floor(bufs, settings)
+    cost_volume_kernel(images, settings, bufs, out)
+    return np.ascontiguousarray(out[:, :, :n_disp])

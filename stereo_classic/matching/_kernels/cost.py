@@ -28,6 +28,7 @@ from stereo_classic.matching._kernels.intrinsics import (
     absdiff16,
     add16,
     lshr16,
+    max16,
     min16,
     mulshr16,
     popxor16,
@@ -131,6 +132,9 @@ class CostSettings(NamedTuple):
         Largest cost after the shift.
     invalid_cost : int
         Cost of a disparity whose match lies outside the right image: ``cmax + 2 * p2_scaled + 1``.
+    num_disparities : int
+        Disparities searched. The row buffers may hold more per pixel (``core.padded_disparities``: whole vector
+        blocks); the indices past ``num_disparities`` get ``invalid_cost``, like a match outside the right image.
     grad_mul : int
         ``CENSUS_GRAD``: ``round(2**GRAD_SHIFT / block_size**2)``, the gradient window sum to its mean; 0 otherwise.
     """
@@ -141,6 +145,7 @@ class CostSettings(NamedTuple):
     shift: int
     cmax: int
     invalid_cost: int
+    num_disparities: int
     grad_mul: int = 0
 
 
@@ -252,6 +257,9 @@ class RowCostBuffers(NamedTuple):
     srev, irev : (2 * (W + 2h + D - 1),) int16
         Gradient and intensity channels of two right rows (the one entering the column window, the one leaving
         it), reversed ((1,) for census; irev (1,) but for SAD).
+    floor : (D,) int16
+        0 for the disparities of the range, the invalid cost for the padding past it (``CostSettings``): the cost
+        of index k is at least ``floor[k]`` (one vector max, instead of a remainder loop per pixel).
     """
 
     colsum: np.ndarray
@@ -259,6 +267,7 @@ class RowCostBuffers(NamedTuple):
     rrev: np.ndarray
     srev: np.ndarray
     irev: np.ndarray
+    floor: np.ndarray
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -381,7 +390,8 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     ``images``: a ``CostImages`` with census codes as (H, W, 4) uint16 quarters; ``cost``: a ``CostSettings``;
     ``bufs``: a ``RowCostBuffers``. The SAD / gradient column sums are built from scratch when ``first``, else
     moved on from row ``y - step`` (``step`` +1 or -1: rows must then come in that order). Disparities whose
-    match falls outside the right image get ``invalid_cost``.
+    match falls outside the right image get ``invalid_cost``, and so do the padding indices ``k >=
+    cost.num_disparities`` (``crow`` holds ``len(crow) // W`` per pixel).
     """
     lcode = images.left_code
     rcode = images.right_code
@@ -394,6 +404,7 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     rrev = bufs.rrev
     srev = bufs.srev
     irev = bufs.irev
+    floor = bufs.floor
     kind = cost.kind
     dmin = cost.min_disparity
     h = cost.half_block
@@ -429,7 +440,7 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
                     hsum[k] = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
         if kind == SAD:
             for k in range(D):
-                crow[_U(cb + k)] = min16(lshr16(hsum[k], shift), cmax)
+                crow[_U(cb + k)] = max16(min16(lshr16(hsum[k], shift), cmax), floor[k])
             continue
         a0 = lcode[y, x, 0]
         a1 = lcode[y, x, 1]
@@ -441,19 +452,21 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
         j3 = j2 + nrr
         if grad:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT, in 32 bits
             for k in range(D):
-                crow[_U(cb + k)] = add16(
+                crow[_U(cb + k)] = max16(add16(
                     add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
                           add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)]))),
-                    mulshr16(hsum[k], gmul, gshift))
+                    mulshr16(hsum[k], gmul, gshift)), floor[k])
         else:
             for k in range(D):
-                crow[_U(cb + k)] = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
-                                         add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
+                crow[_U(cb + k)] = max16(add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                                               add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)]))),
+                                         floor[k])
+    nd = cost.num_disparities
     for x in range(W):  # disparities whose match is outside the right image: k outside [k_lo, k_hi]
-        k_lo, k_hi = valid_range(x, W, dmin, D)
-        if k_lo > 0 or k_hi < D - 1:
+        k_lo, k_hi = valid_range(x, W, dmin, nd)
+        if k_lo > 0 or k_hi < nd - 1:
             cb = x * D
-            for k in range(D):
+            for k in range(nd):
                 if k < k_lo or k > k_hi:
                     crow[_U(cb + k)] = cinv
 

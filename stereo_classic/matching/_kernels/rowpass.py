@@ -270,5 +270,5 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
             for j in range(W * D):
                 Sf[_U(base + j)] = srow[_U(j)]
         if plan.select:
-            select_row(y, settings, dmin, srow, nsrow, kidx, rv, rd, bufs.best, bufs.counts, bufs.claim_cost,
-                       bufs.claim_k, out)
+            select_row(y, settings, dmin, cost.num_disparities, srow, nsrow, kidx, rv, rd, bufs.best, bufs.counts,
+                       bufs.claim_cost, bufs.claim_k, out)

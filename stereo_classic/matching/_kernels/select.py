@@ -24,9 +24,10 @@ _U = np.uint64  # unsigned flat indices: no wraparound code, contiguous vector l
 
 
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def select_row(y, settings, dmin, sums, row_min, k_index, right_sums, right_k, best, counts, claim_cost, claim_k,
-               out):  # pragma: no cover - numba
-    """Resolve row ``y`` from its complete sums ``sums[x * D + k]`` (int16), their minima ``row_min[x]`` and the
+def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, right_k, best, counts, claim_cost,
+               claim_k, out):  # pragma: no cover - numba
+    """Resolve row ``y`` from its complete sums ``sums[x * D + k]`` (int16; D = ``len(k_index)``: the ``ndisp``
+    disparities of the range, then padding, which sums higher than any of them), their minima ``row_min[x]`` and the
     right view's winners ``right_k`` (``right_sums`` / ``right_k`` per right pixel q = W - 1 - dmin - x_right:
     the lowest sum landing there and its disparity index, ties to the smallest; made by ``right_view_row``).
 
@@ -60,7 +61,7 @@ def select_row(y, settings, dmin, sums, row_min, k_index, right_sums, right_k, b
             ccost[q] = big
             ck[q] = minus1
     for x in range(W):
-        k_lo, k_hi = valid_range(x, W, dmin, D)
+        k_lo, k_hi = valid_range(x, W, dmin, ndisp)
         if k_lo > k_hi:
             disp[y, x] = nan
             best[x] = -1
@@ -119,7 +120,7 @@ def select_row(y, settings, dmin, sums, row_min, k_index, right_sums, right_k, b
         nq = rv.shape[0]
         for xr in range(W):
             q = W - 1 - dmin - xr
-            if 0 <= q < nq and rd[q] >= 0:
+            if 0 <= q < nq and 0 <= rd[q] < ndisp:
                 dispR[y, xr] = np.float32(dmin + rd[q])
             else:
                 dispR[y, xr] = nan

@@ -661,3 +661,32 @@ def test_first_compile_note_looks_at_the_kernel_the_call_runs(paths, kernel, mon
         with caplog.at_level(logging.INFO, logger="stereo_classic"):
             core._note_first_compile(paths)
         assert ("compiling the stereo kernels once" in caplog.text) == said
+
+
+@pytest.mark.parametrize("paths", [3, 8])
+@pytest.mark.parametrize("cost", ["census+grad", "sad"])
+@pytest.mark.parametrize("lr_mode", ["full", "opencv"])
+def test_disparity_padding_changes_nothing(paths, cost, lr_mode, monkeypatch):
+    """The kernels hold whole blocks of disparities per pixel (``padded_disparities``); the padding past the range
+    never wins and never changes a path value in range: the left and right views and the rejection counts are
+    those of buffers exactly as wide as the range, for ranges below, at and between the blocks, at either sign of
+    the smallest disparity."""
+    tex = _textured(60, 150, seed=11)
+    left = np.round(tex).astype(np.uint8)
+    right = np.round(_sample_rows(tex, np.arange(150)[None, :].repeat(60, 0) + 9)).astype(np.uint8)
+    pen = dict(p1=28, p2=112) if cost != "sad" else dict(p1=200, p2=800)
+    for dmin, n in ((0, 5), (-4, 40), (3, 64), (0, 70), (-10, 100), (-20, 8)):
+        padded = core.padded_disparities(n, paths)
+        assert padded % core.DISPARITY_BLOCK == 0 and padded >= n
+        kw = dict(cost=cost, min_disparity=dmin, num_disparities=n, paths=paths, uniqueness=0.05, lr_check=1.0,
+                  lr_mode=lr_mode, return_right=True, threads=2, **pen)
+        d, dr, t = core.sgm_match(left, right, **kw)
+        with monkeypatch.context() as m:
+            m.setattr(core, "DISPARITY_BLOCK", 1)
+            m.setattr(core, "MIN_DISPARITIES_ONE_SWEEP", 1)
+            assert core.padded_disparities(n, paths) == n
+            d1, dr1, t1 = core.sgm_match(left, right, **kw)
+        np.testing.assert_array_equal(d, d1)
+        np.testing.assert_array_equal(dr, dr1)
+        assert (t["n_failed_lr"], t["n_failed_uniqueness"]) == (t1["n_failed_lr"], t1["n_failed_uniqueness"])
+        assert np.isfinite(d).any() and np.nanmax(d) <= dmin + n - 1 and np.nanmin(d) >= dmin
