@@ -1,8 +1,10 @@
 """Checks of one frame's disparity that catch confident wrong numbers: disparities piling up at the end of the
 search range (an object nearer than the range reaches) and a left/right swapped or mismatched pair.
 
-Both checks compare the frame with a cheap second look at the pair at half resolution (a quarter of the
-pixels, so a quarter of the matcher's time):
+Both checks read one cheap second look at the pair, made once a frame at half resolution (a quarter of the
+pixels) with fixed settings (census, 1 px left-right check, no hole filling, whatever the caller's), over
+disparities from minus the mirror of the range (what the images have when they are swapped) to twice the
+full-size reach (what an object nearer than the range has):
 
 * **Range.** A pixel whose true disparity is beyond ``params.max_disparity`` has no correct candidate; its
   cost keeps falling towards the end of the range, so such pixels pile up in the last pixel of disparity.
@@ -12,29 +14,37 @@ pixels, so a quarter of the matcher's time):
   worth, two and a half times the largest share seen on a scene that fits. A box is suspect when
   :data:`BOX_SATURATION` (5 %) of its known pixels are at the end, or fewer than :data:`BOX_SPARSE` (60 %) of
   its pixels are known (a fine texture beyond the range matches the wall behind rather than pile up; a
-  hole-filled map hides this). Then the pair is matched again at half size with the same number of
-  disparities, which reaches twice as far: the frame's warning says which range would fit, and each object
-  whose disparity there lies more than 2 px (the look's own step) beyond the full-size range gets the status
-  ``"beyond_range"`` instead of a distance (what it had was the best of wrong candidates). The half-size looks
-  use fixed settings (census, 1 px left-right check, no hole filling), whatever the caller's.
-* **Pair.** Swapped images have negative disparities, which the search does not cover: matching the pair the
-  other way round (right as left) then finds more left-right consistent pixels than the given order. The
-  check matches the half-size pair both ways; its valid fraction is the share of consistent pixels. On every
-  shared scene and the demo the given order keeps 16 to 82 points more of its pixels than the reverse (stairs
-  47 % against 31 %, the Motorcycle 92 % against 10 %); swapped, the reverse keeps as much more. The pair is
-  called swapped when the reverse keeps :data:`SWAP_MARGIN` (3 points) more, and mismatched when neither order
-  is preferred by more than that or neither keeps :data:`MISMATCH_VALID` (30 %) of its pixels (two unrelated
-  OAK-D images: 8 to 10 %; the lowest real pair, stairs: 47 %). A right image shifted by 12 rows still keeps
-  35 %: a vertical offset is what the rectification check of ``RectifiedRig.rectify_pair`` measures. Every
-  object of a swapped or mismatched frame gets the status ``"pair_mismatch"``. The check runs on every frame
-  (half the disparities at half size: the same reach for an eighth of the work, twice), so that a frame's
-  result never depends on the frames before it; ``Localizer(checks=False)`` turns the checks off.
+  hole-filled map hides this). The half-size look reaches twice as far: the frame's warning says which range
+  would fit, and each object whose disparity there lies more than 2 px (the look's own step) beyond the
+  full-size range gets the status ``"beyond_range"`` instead of a distance (what it had was the best of wrong
+  candidates).
+* **Pair.** Swapped images have negative disparities (the right image's content lies right of the left one's),
+  which the frame's search does not cover; the look covers both signs, so the two orders compete for every
+  pixel in one aggregation. Its shares: the pixels that match left-right consistently at disparities only the
+  given order can have (at least 1 px, and beyond the mirror of a negative ``min_disparity``), and those at
+  disparities only the exchanged order can have (the negatives of those). On every shared scene the given
+  order's share is 42 to 95 % and the other's at most 1 %; swapped, the other way round (44 to 93 % against at
+  most 1 %; stairs 42 % as given, 44 % swapped); two unrelated OAK-D images at most 3 % either way
+  (``python -m benchmarks.pair_check``). The pair is called swapped when the exchanged order's share is
+  :data:`SWAP_MARGIN` (3 points) larger and at least :data:`MISMATCH_VALID` (30 %), and mismatched when neither
+  order is preferred by more than that or neither keeps 30 % of the pixels. A right image shifted by 15 rows keeps
+  12 to 39 % (9 of the 12 OAK-D pairs are called mismatched, 3 pass): a vertical offset is what the rectification
+  check of ``RectifiedRig.rectify_pair`` measures. Every object of a swapped or mismatched frame gets the status
+  ``"pair_mismatch"``. The check runs on every frame, so that a frame's result never depends on the frames
+  before it; ``Localizer(checks=False)`` turns the checks off.
+
+The one look replaced three (each order at half the range for the pair check, the given order at twice the reach
+for the range check): the kernels' time per pixel depends little on the number of disparities, and in one
+aggregation the two orders compete for each pixel, so a real pair prefers its order by 42 points or more instead
+of 16 (stairs: 42 % against 0 %, then 47 % against 31 %). Measured with the default detector at 2 threads (the ``checks`` stage of
+``benchmarks.objects.pipeline_fps``, median of 9 frames, alternated twice with the three looks): the KITTI pair at
+128 disparities (its near car is beyond the range, so both checks look) 40.7 / 41.3 -> 28.9 / 28.1 ms; selfie
+(640x480 at 64, its hand beyond the range) 38.8 / 33.0 -> 25.9 / 29.5 ms.
 """
 
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any, NamedTuple
 
 import cv2
@@ -104,13 +114,14 @@ def _half(image: np.ndarray) -> np.ndarray:
 
 
 class _Halves:
-    """The half-size left and right images of one frame, each made once, when a look first needs it: the pair
-    check's two looks and the range check's look share them (KITTI pair: 1.2 ms a resize, six of them a frame
-    before)."""
+    """The half-size left and right images of one frame, each made once, and the frame's look at them, made once
+    when a check first needs it: the pair check and the range check share both."""
 
     def __init__(self, left: np.ndarray, right: np.ndarray) -> None:
         self._full = (left, right)
         self._half: dict[int, np.ndarray] = {}
+        self.look: DisparityMap | None = None
+        self.looked = False
 
     def get(self, side: int) -> np.ndarray:
         """0: the left image at half size, 1: the right one."""
@@ -135,66 +146,65 @@ class FrameChecker:
 
     def __init__(self, params: SGMParams) -> None:
         self.params = params
-        self._matchers: dict[tuple[bool, str], StereoMatcher] = {}
-        self._pool: ThreadPoolExecutor | None = None
+        self._matcher: StereoMatcher | None = None
 
     def halves(self, left: np.ndarray, right: np.ndarray) -> _Halves:
         """The half-size images of one frame, for its checks to share (pass it to each check of that frame)."""
         return _Halves(left, right)
 
-    def _half_match(self, halves: _Halves, *, swap: bool = False, reach: bool, role: str = "",
-                    threads: int | None = None) -> DisparityMap | None:
-        """Disparity of the half-size pair, or None when the half-size images are too small for the range.
+    def look_range(self) -> tuple[int, int]:
+        """(min_disparity, num_disparities) of the half-size look: from minus the mirror of the full range's end
+        (half of it, rounded up to 16) up to the full range's start at half size plus ``num_disparities`` (twice
+        the reach)."""
+        p = self.params
+        start = math.floor(p.min_disparity / 2)
+        mirror = 16 * math.ceil((p.max_disparity + 1) / 32)
+        low = min(start, -mirror)
+        return low, start + p.num_disparities - low
 
-        ``reach``: the same number of disparities as the full-size match, so twice its reach (the range check);
-        otherwise half of them (rounded up to 16): the same reach at a quarter of the pixels (the pair check).
-        The settings are fixed, whatever the caller's (census cost with its default penalties, the full 1 px
-        left-right check, no hole filling): the valid fraction is the share of left-right consistent pixels and
-        every disparity a measured one. ``role`` names a matcher of its own (two looks can run at once);
-        ``threads`` its kernel threads (default: the caller's; the disparity is the same for any count); ``swap``:
-        the right image as the left one.
-        """
+    def _look(self, halves: _Halves) -> DisparityMap | None:
+        """The frame's half-size look (made once, kept on ``halves``), or None when the half-size images are too
+        small for its range. Fixed settings, whatever the caller's (census cost with its default penalties, the
+        full 1 px left-right check, no hole filling): every disparity a measured, left-right consistent one."""
+        if halves.looked:
+            return halves.look
+        halves.looked = True
         try:
-            key = (reach, role)
-            if key not in self._matchers:
-                p = self.params
-                num = p.num_disparities if reach else 16 * math.ceil(p.num_disparities / 32)
-                self._matchers[key] = StereoMatcher(p.replace(
-                    min_disparity=math.floor(p.min_disparity / 2), num_disparities=num, cost="census", p1=None,
-                    p2=None, weak_texture_gain=1.0, lr_check=1.0, lr_mode="full", fill_holes=False,
-                    threads=p.threads if threads is None else threads))
-            first, second = (1, 0) if swap else (0, 1)
-            return self._matchers[key].compute(halves.get(first), halves.get(second))
+            if self._matcher is None:
+                low, num = self.look_range()
+                self._matcher = StereoMatcher(self.params.replace(
+                    min_disparity=low, num_disparities=num, cost="census", p1=None, p2=None, weak_texture_gain=1.0,
+                    lr_check=1.0, lr_mode="full", fill_holes=False))
+            halves.look = self._matcher.compute(halves.get(0), halves.get(1))
         except ValueError:  # StereoInputError, MemoryBudgetError: the images are too small for the range
-            return None
+            halves.look = None
+        return halves.look
 
-    def _pair_looks(self, halves: _Halves) -> tuple[DisparityMap | None, DisparityMap | None]:
-        """The pair check's two half-size looks, as given and with left and right exchanged. With two or more
-        threads they run at once, each on half of them: a look is small (a quarter of the pixels, half the range),
-        so its stripes and its serial post-processing leave a second core idle (KITTI pair, 2 threads, check_pair:
-        34.9 ms median one after the other, 30.3 at once; best 30.7 and 21.8)."""
-        threads = self.params.effective_threads
-        if threads < 2:
-            return (self._half_match(halves, reach=False, role="as given"),
-                    self._half_match(halves, swap=True, reach=False, role="exchanged"))
-        if self._pool is None:
-            self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="pair-check")
-        halves.get(0), halves.get(1)  # made once, before the two looks read them
-        each = max(1, threads // 2)
-        exchanged = self._pool.submit(self._half_match, halves, swap=True, reach=False, role="exchanged",
-                                      threads=each)
-        try:
-            given = self._half_match(halves, reach=False, role="as given", threads=each)
-        finally:
-            backward = exchanged.result()
-        return given, backward
+    def _order_threshold(self) -> float:
+        """Half-size disparity from which only the given order has pixels: 1 px, beyond the mirror of a negative
+        ``min_disparity``."""
+        return 1.0 + max(0.0, -self.params.min_disparity / 2.0)
+
+    def _reach(self, look: DisparityMap, w: int, h: int) -> np.ndarray:
+        """The look as a full-size disparity map of the given order (``w`` x ``h``, pixels at full scale): the
+        pixels it matched below the range's start at half size (the exchanged order's side) are unknown."""
+        d = look.disparity.copy()
+        with np.errstate(invalid="ignore"):
+            d[d < math.floor(self.params.min_disparity / 2)] = np.nan
+        return cv2.resize(d * np.float32(2.0), (w, h), interpolation=cv2.INTER_NEAREST)
+
+    def order_shares(self, look: DisparityMap) -> tuple[float, float]:
+        """(given, exchanged): the fractions of the look's pixels that are consistent at disparities only the given
+        order can have (at least 1 px, and beyond the mirror of a negative ``min_disparity``) and at those only
+        the exchanged order can have (their negatives)."""
+        t = self._order_threshold()
+        d = look.disparity
+        with np.errstate(invalid="ignore"):
+            return (int(np.count_nonzero(d >= t)) / d.size, int(np.count_nonzero(d <= -t)) / d.size)
 
     def close(self) -> None:
-        for matcher in self._matchers.values():
-            matcher.release()
-        if self._pool is not None:
-            self._pool.shutdown(wait=True)
-            self._pool = None
+        if self._matcher is not None:
+            self._matcher.release()
 
     # ------------------------------------------------------------------------------------------ pair
     def check_pair(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap,
@@ -208,20 +218,23 @@ class FrameChecker:
         h, w = left.shape[:2]
         if w // 2 < max(MIN_CHECK_WIDTH, self.params.num_disparities // 2 + 32) or h // 2 < MIN_CHECK_HEIGHT:
             return None  # too small to tell: on tiny images nearly every match is consistent both ways
-        forward, backward = self._pair_looks(self.halves(left, right) if halves is None else halves)
-        if forward is None or backward is None:
+        if self.params.max_disparity / 2.0 < self._order_threshold() + 2.0:
+            return None  # a range (nearly) symmetric about 0: both orders have the same disparities
+        look = self._look(self.halves(left, right) if halves is None else halves)
+        if look is None:
             return None
-        fwd, rev = forward.valid_fraction, backward.valid_fraction
-        if rev > fwd + SWAP_MARGIN and rev >= MISMATCH_VALID:
+        given, other = self.order_shares(look)
+        if other > given + SWAP_MARGIN and other >= MISMATCH_VALID:
             return FrameWarning("swapped_pair", (
-                f"left and right look swapped: matched the other way round, {rev:.0%} of the pixels are consistent "
-                f"against {fwd:.0%} as given ({valid:.0%} valid at full size); no distance is reported; swap the "
-                "images (or the cameras' order in the calibration)"))
-        if max(fwd, rev) < MISMATCH_VALID or fwd - rev <= SWAP_MARGIN:
+                f"left and right look swapped: {other:.0%} of the pixels match consistently as if the images were "
+                f"the other way round, against {given:.0%} as given ({valid:.0%} valid at full size); no distance "
+                "is reported; swap the images (or the cameras' order in the calibration)"))
+        if max(given, other) < MISMATCH_VALID or given - other <= SWAP_MARGIN:
             return FrameWarning("pair_mismatch", (
-                f"the images do not match as a rectified pair: {fwd:.0%} of the pixels are consistent, and "
-                f"{rev:.0%} with left and right exchanged (a real pair prefers its own order by 10 points or more); "
-                "are they from the same moment, the same rig and this calibration? No distance is reported"))
+                f"the images do not match as a rectified pair: {given:.0%} of the pixels match consistently as "
+                f"given, and {other:.0%} with left and right exchanged (a real pair keeps 40 % or more in its own "
+                "order and almost none the other way); are they from the same moment, the same rig and this "
+                "calibration? No distance is reported"))
         return None
 
     # ------------------------------------------------------------------------------------------ range
@@ -236,12 +249,12 @@ class FrameChecker:
         boxes = _suspect_boxes(disp, objects, top, fusion.box_shrink)
         if frame_share < SATURATION_WARN and not boxes.any():
             return objects, None
-        probe = self._half_match(self.halves(left, right) if halves is None else halves, reach=True)
+        probe = self._look(self.halves(left, right) if halves is None else halves)
         if probe is None:
             return objects, (FrameWarning("range_saturated", _range_message(frame_share, top, rig, None))
                              if frame_share >= SATURATION_WARN else None)
         h, w = disp.shape
-        wide = cv2.resize(probe.disparity * np.float32(2.0), (w, h), interpolation=cv2.INTER_NEAREST)
+        wide = self._reach(probe, w, h)
         beyond = np.zeros(len(objects), dtype=bool)
         needed_by_objects: float | None = None
         if frame_share >= SATURATION_WARN:
@@ -274,11 +287,11 @@ class FrameChecker:
         share = range_saturation(disp, top)
         if share < SATURATION_WARN:
             return None
-        probe = self._half_match(self.halves(left, right), reach=True)
+        probe = self._look(self.halves(left, right))
         needed = None
         if probe is not None:
             h, w = disp.shape
-            wide = cv2.resize(probe.disparity * np.float32(2.0), (w, h), interpolation=cv2.INTER_NEAREST)
+            wide = self._reach(probe, w, h)
             needed = _needed(disp, wide, top)
         return FrameWarning("range_saturated", _range_message(share, top, None, needed, 0, dmap.params.min_disparity))
 

@@ -68,8 +68,8 @@ def test_object_beyond_the_range_is_marked_and_the_frame_says_which_range_fits(n
 
 
 def test_a_frames_checks_share_its_half_size_images(near_scene, monkeypatch):
-    """The pair check's two looks and the range check's look resize each image of the frame once, and give what
-    they give with images of their own (the same objects, statuses and warning)."""
+    """The pair check and the range check resize each image of the frame once, and give what they give with images
+    of their own (the same objects, statuses and warning)."""
     import stereo_classic.checks as checks
 
     left, right, rig = near_scene
@@ -83,7 +83,7 @@ def test_a_frames_checks_share_its_half_size_images(near_scene, monkeypatch):
     try:
         resized.clear()
         alone = checker.check_range(left, right, r.disparity, r.objects, rig, loc.fusion, loc.seed)
-        assert checker.check_pair(left, right, r.disparity) is None and len(resized) == 4  # two of their own each
+        assert checker.check_pair(left, right, r.disparity) is None and len(resized) == 4  # their own two each
     finally:
         checker.close()
     assert alone[0].status == r.objects.status and [alone[1].code] == [w.code for w in r.warnings]
@@ -186,22 +186,49 @@ def test_the_same_image_twice_is_not_a_pair(near_scene):
 
 
 @pytest.mark.parametrize("order", ["as given", "swapped"])
-def test_the_pair_looks_at_once_equal_the_looks_one_after_the_other(near_scene, order):
-    """With two threads the pair check's two half-size looks run at the same time, one thread each; what they
-    see, and so the check's answer, is what one thread sees running them one after the other."""
+def test_the_look_is_the_same_for_any_thread_count(near_scene, order):
+    """The frame's one half-size look (both signs of disparity, twice the reach) and so the pair check's answer do
+    not depend on the thread count; the given order's pixels lie at positive disparities, the swapped ones' at
+    negative ones."""
     left, right, _ = near_scene
     if order == "swapped":
         left, right = right, left
-    both = FrameChecker(SGMParams(num_disparities=96, threads=2))
-    one = FrameChecker(SGMParams(num_disparities=96, threads=1))
+    checkers = [FrameChecker(SGMParams(num_disparities=96, threads=t)) for t in (1, 2, 3)]
     try:
-        at_once, in_turn = both._pair_looks(both.halves(left, right)), one._pair_looks(one.halves(left, right))
-        assert both._pool is not None and one._pool is None  # the two ways really ran
-        for a, b in zip(at_once, in_turn):
-            np.testing.assert_array_equal(a.disparity, b.disparity)
+        assert checkers[0].look_range() == (-48, 144)  # -48 .. 95 at half size: the mirror of 0..95, twice 0..47
+        looks = [c._look(c.halves(left, right)) for c in checkers]
+        for look in looks[1:]:
+            np.testing.assert_array_equal(look.disparity, looks[0].disparity)
+        given, other = checkers[0].order_shares(looks[0])
+        assert (given > 0.5 and other < 0.05) if order == "as given" else (other > 0.5 and given < 0.05)
         blank = _blank(left)
-        assert both.check_pair(left, right, blank) == one.check_pair(left, right, blank)
+        answers = {c.check_pair(left, right, blank) for c in checkers}
+        assert len(answers) == 1 and (answers.pop() is None) == (order == "as given")
     finally:
-        both.close()
-        one.close()
-    assert both._pool is None
+        for c in checkers:
+            c.close()
+
+
+def test_a_range_symmetric_about_zero_cannot_tell_the_order(near_scene):
+    """With disparities from -48 to 47 both orders have the same ones: the pair check says nothing rather than
+    guess (the range check still looks)."""
+    left, right, _ = near_scene
+    checker = FrameChecker(SGMParams(min_disparity=-48, num_disparities=96))
+    try:
+        assert checker.check_pair(left, right, _blank(left)) is None
+        assert checker.check_pair(right, left, _blank(left)) is None
+    finally:
+        checker.close()
+
+
+def test_a_frame_is_looked_at_once(near_scene, monkeypatch):
+    """The pair check and the range check of one frame read the same half-size look: one match a frame."""
+    left, right, rig = near_scene
+    with Localizer(rig, FixedBoxes([BOX]), {"num_disparities": 48, "fill_holes": False}) as loc:
+        loc(left, right)  # compiled, allocated
+        calls = []
+        matcher = loc.checker._matcher
+        real = matcher.compute
+        monkeypatch.setattr(matcher, "compute", lambda *a, **k: calls.append(1) or real(*a, **k))
+        r = loc(left, right)
+    assert r.objects.status == ("beyond_range",) and len(calls) == 1  # both checks looked, one match
