@@ -75,10 +75,13 @@ def test_census_windows_match_reference(census_window):
     np.testing.assert_array_equal(core.cost_volume(left, right, **kw), ref.cost_volume_reference(left, right, **kw))
 
 
-@pytest.mark.parametrize("block_size", [1, 3, 7])
-def test_sad_block_sizes_match_reference(block_size):
-    left, right = _pair(3, h=9, w=16)
-    kw = dict(cost="sad", min_disparity=-1, num_disparities=6, block_size=block_size, p2=P2)
+@pytest.mark.parametrize("cost", ["sad", "census+grad"])
+@pytest.mark.parametrize("block_size", [1, 3, 7, 9, 15, 21])
+def test_sad_block_sizes_match_reference(block_size, cost):
+    """Every window size, for the SAD cost and the gradient term of census+grad (its window mean: the sum times
+    round(1024 / block**2), shifted; block 9's products come closest to 2**16)."""
+    left, right = _pair(3, h=9 + block_size, w=16 + block_size)
+    kw = dict(cost=cost, min_disparity=-1, num_disparities=6, block_size=block_size, p2=P2)
     np.testing.assert_array_equal(core.cost_volume(left, right, **kw), ref.cost_volume_reference(left, right, **kw))
 
 
