@@ -36,10 +36,10 @@ full-size reach (what an object nearer than the range has):
 The one look replaced three (each order at half the range for the pair check, the given order at twice the reach
 for the range check): the kernels' time per pixel depends little on the number of disparities, and in one
 aggregation the two orders compete for each pixel, so a real pair prefers its order by 42 points or more instead
-of 16 (stairs: 42 % against 0 %, then 47 % against 31 %). Measured with the default detector at 2 threads (the ``checks`` stage of
-``benchmarks.objects.pipeline_fps``, median of 9 frames, alternated twice with the three looks): the KITTI pair at
-128 disparities (its near car is beyond the range, so both checks look) 40.7 / 41.3 -> 28.9 / 28.1 ms; selfie
-(640x480 at 64, its hand beyond the range) 38.8 / 33.0 -> 25.9 / 29.5 ms.
+of 16 (stairs: 42 % against 0 %, then 47 % against 31 %). Measured with the default detector at 2 threads (the
+``checks`` stage of ``benchmarks.objects.pipeline_fps``, median of 9 frames, alternated twice with the three
+looks): the KITTI pair at 128 disparities (its near car is beyond the range, so both checks look) 40.7 / 41.3 ->
+28.9 / 28.1 ms; selfie (640x480 at 64, its hand beyond the range) 38.8 / 33.0 -> 25.9 / 29.5 ms.
 """
 
 from __future__ import annotations
@@ -186,11 +186,16 @@ class FrameChecker:
         return 1.0 + max(0.0, -self.params.min_disparity / 2.0)
 
     def _reach(self, look: DisparityMap, w: int, h: int) -> np.ndarray:
-        """The look as a full-size disparity map of the given order (``w`` x ``h``, pixels at full scale): the
-        pixels it matched below the range's start at half size (the exchanged order's side) are unknown."""
+        """The look as a full-size disparity map of the given order (``w`` x ``h``, pixels at full scale). Unknown:
+        the pixels it matched below the range's start at half size (the exchanged order's side), and the left
+        border's columns that reach less than ``border_reach`` of the given order's ``num_disparities`` (the
+        look's own border rule counts its negative side too)."""
+        p = self.params
+        start = math.floor(p.min_disparity / 2)
         d = look.disparity.copy()
         with np.errstate(invalid="ignore"):
-            d[d < math.floor(self.params.min_disparity / 2)] = np.nan
+            d[d < start] = np.nan
+        d[:, :max(0, math.ceil(start + p.border_reach * p.num_disparities - 1))] = np.nan
         return cv2.resize(d * np.float32(2.0), (w, h), interpolation=cv2.INTER_NEAREST)
 
     def order_shares(self, look: DisparityMap) -> tuple[float, float]:

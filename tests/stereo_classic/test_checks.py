@@ -232,3 +232,19 @@ def test_a_frame_is_looked_at_once(near_scene, monkeypatch):
         monkeypatch.setattr(matcher, "compute", lambda *a, **k: calls.append(1) or real(*a, **k))
         r = loc(left, right)
     assert r.objects.status == ("beyond_range",) and len(calls) == 1  # both checks looked, one match
+
+
+def test_the_range_check_reads_the_given_orders_side_of_the_look():
+    """The range check reads the look as the given order's map: its negative side (the exchanged order's) is
+    unknown, and so is the left border that reaches less than ``border_reach`` of the given order's range (as the
+    look over that range alone would have it; the look's own border rule counts its negative side too)."""
+    checker = FrameChecker(SGMParams(num_disparities=48))
+    low, num = checker.look_range()
+    assert (low, num) == (-32, 80)
+    d = np.full((10, 40), 30.0, np.float32)
+    d[:, 30:] = -5.0                                             # matched as if exchanged
+    wide = checker._reach(DisparityMap(d, None, SGMParams(min_disparity=low, num_disparities=num)), 80, 20)
+    assert wide.shape == (20, 80)
+    known = np.isfinite(wide[0])
+    assert not known[:2 * 23].any() and known[2 * 23:2 * 30].all() and not known[2 * 30:].any()
+    np.testing.assert_array_equal(wide[0, 2 * 23:2 * 30], 60.0)   # full-size pixels: twice the half-size ones
