@@ -25,6 +25,7 @@ Usage (starts processes, so not a doctest)::
 
 from __future__ import annotations
 
+import concurrent.futures
 import dataclasses
 import importlib
 import logging
@@ -39,9 +40,12 @@ from typing import Any, Self
 from stereo_classic.runner import DetectorSpec, FrameOutput, FrameProcessor
 from stereo_classic.sources import FrameRef
 
-__all__ = ["INSTALL_HINT", "DaskExecutor", "DaskNotInstalledError", "import_distributed"]
+__all__ = ["INSTALL_HINT", "LOST_RESULT_RETRIES", "DaskExecutor", "DaskNotInstalledError", "import_distributed"]
 
 log = logging.getLogger("stereo_classic.run")
+
+#: How often a frame whose result was lost with a worker is submitted again before the run fails.
+LOST_RESULT_RETRIES = 3
 
 #: The one line that says what to install.
 INSTALL_HINT = ('--executor dask needs Dask: pip install "stereo-classic[dask]" (which installs "dask[distributed]")')
@@ -183,6 +187,9 @@ class DaskExecutor:
         """Process ``refs`` on the cluster and hand each output to ``take`` in frame order, as results arrive.
 
         The first frame that raises (``processor.on_error == "stop"``) cancels what is in flight and raises here.
+        A frame whose result is lost without an error of its own (the worker holding it died after it finished, and
+        the scheduler forgot the key: the future comes back cancelled) is submitted again, at most
+        :data:`LOST_RESULT_RETRIES` times; frames are written here, in order, so a frame run twice is written once.
         """
         if self.client is None:
             raise RuntimeError("DaskExecutor.run needs `with DaskExecutor(...) as ex:` first")
@@ -203,6 +210,17 @@ class DaskExecutor:
         source = iter(refs)
         exhausted = False
 
+        refs: dict[str, FrameRef] = {}
+        lost: dict[int, int] = {}
+
+        def submit(ref: FrameRef) -> None:
+            tries = lost.get(ref.index, 0)
+            key = f"stereo-frame-{ref.index}-{token}" + (f"-again{tries}" if tries else "")
+            future = client.submit(process_on_worker, remote, token, ref, pure=False, key=key)
+            refs[future.key] = ref
+            in_flight.add(future)
+            done.add(future)
+
         def fill() -> None:
             nonlocal exhausted
             while not exhausted and len(in_flight) + len(ready) < window:
@@ -210,17 +228,24 @@ class DaskExecutor:
                 if ref is None:
                     exhausted = True
                     return
-                future = client.submit(process_on_worker, remote, token, ref, pure=False,
-                                       key=f"stereo-frame-{ref.index}-{token}")
-                in_flight.add(future)
                 order.append(ref.index)
-                done.add(future)
+                submit(ref)
 
         try:
             fill()
             for future in done:
                 in_flight.discard(future)
-                out: FrameOutput = future.result()  # the worker's error, re-raised (on_error="stop")
+                ref = refs.pop(future.key)
+                try:
+                    out: FrameOutput = future.result()  # the worker's error, re-raised (on_error="stop")
+                except concurrent.futures.CancelledError:  # lost with a worker, not failed: run it again
+                    lost[ref.index] = lost.get(ref.index, 0) + 1
+                    if lost[ref.index] > LOST_RESULT_RETRIES:
+                        raise RuntimeError(f"frame {ref.index}: its result was lost {lost[ref.index]} times (workers "
+                                           "dying or the scheduler restarting); nothing of it was written") from None
+                    log.warning("frame %d: its result was lost with a worker; running it again", ref.index)
+                    submit(ref)
+                    continue
                 ready[out.index] = out
                 while order and order[0] in ready:
                     take(ready.pop(order.popleft()))

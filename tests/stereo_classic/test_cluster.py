@@ -100,6 +100,49 @@ def test_a_killed_worker_loses_no_frame_and_writes_none_twice(tmp_path, cluster,
     assert _folder(out) == _folder(serial)
 
 
+def test_a_result_lost_after_it_finished_is_computed_again(tmp_path, cluster, pairs, monkeypatch):
+    """The race the killed-worker test can hit: a frame finishes, then the worker holding its result dies and the
+    scheduler forgets the key, so its future comes back cancelled. Made deterministic here (frame 3's first
+    result raises that cancellation): the frame is submitted again, and the folder equals the serial run's."""
+    import concurrent.futures
+
+    files, rig = pairs
+    real = distributed.Future.result
+    lost = []
+
+    def result(self, *args, **kwargs):
+        if "stereo-frame-3-" in str(self.key) and not lost:
+            lost.append(self.key)
+            raise concurrent.futures.CancelledError(f"{self.key} cancelled for reason: already forgotten.")
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(distributed.Future, "result", result)
+    out, serial = tmp_path / "o", tmp_path / "serial"
+    with DaskExecutor(cluster.scheduler_address) as executor:
+        summary = run_source(PairSource(files), FrameWriter(out, sequence=True), params_for=_params, rig=rig,
+                             executor=executor)
+    assert lost and summary.frames == len(files)
+    run_source(PairSource(files), FrameWriter(serial, sequence=True), params_for=_params, rig=rig)
+    assert _folder(out) == _folder(serial)
+
+
+def test_a_result_lost_every_time_fails_the_run_and_says_so(tmp_path, cluster, pairs, monkeypatch):
+    import concurrent.futures
+
+    files, rig = pairs
+    real = distributed.Future.result
+
+    def result(self, *args, **kwargs):
+        if "stereo-frame-1-" in str(self.key):
+            raise concurrent.futures.CancelledError(f"{self.key} cancelled")
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(distributed.Future, "result", result)
+    with DaskExecutor(cluster.scheduler_address) as executor, pytest.raises(RuntimeError, match="frame 1: its result"):
+        run_source(PairSource(files), FrameWriter(tmp_path / "o", sequence=True), params_for=_params, rig=rig,
+                   executor=executor)
+
+
 def test_resume_across_executors(tmp_path, cluster, pairs):
     files, rig = pairs
     out, serial = tmp_path / "o", tmp_path / "serial"
