@@ -210,14 +210,14 @@ class DaskExecutor:
         source = iter(refs)
         exhausted = False
 
-        refs: dict[str, FrameRef] = {}
+        ref_of: dict[str, FrameRef] = {}  # future key -> its frame
         lost: dict[int, int] = {}
 
         def submit(ref: FrameRef) -> None:
             tries = lost.get(ref.index, 0)
             key = f"stereo-frame-{ref.index}-{token}" + (f"-again{tries}" if tries else "")
             future = client.submit(process_on_worker, remote, token, ref, pure=False, key=key)
-            refs[future.key] = ref
+            ref_of[future.key] = ref
             in_flight.add(future)
             done.add(future)
 
@@ -235,7 +235,7 @@ class DaskExecutor:
             fill()
             for future in done:
                 in_flight.discard(future)
-                ref = refs.pop(future.key)
+                ref = ref_of.pop(future.key)
                 try:
                     out: FrameOutput = future.result()  # the worker's error, re-raised (on_error="stop")
                 except concurrent.futures.CancelledError:  # lost with a worker, not failed: run it again
