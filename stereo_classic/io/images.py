@@ -71,6 +71,23 @@ def header_size(data: np.ndarray | bytes) -> tuple[int, int] | None:
     return None
 
 
+def _truncated(data: np.ndarray | bytes) -> str:
+    """Why a PNG or JPEG that did not decode looks cut short, from its own structure; "" when it does not.
+
+    Decoders do not always say so themselves (OpenCV 5's PNG reader fails a truncated file silently).
+
+    >>> _truncated(b"\\x89PNG\\r\\n\\x1a\\n" + bytes(20))
+    '; the file ends before its IEND chunk: it is truncated'
+    """
+    tail = bytes(data[-64:])
+    head = bytes(data[:8])
+    if head == b"\x89PNG\r\n\x1a\n" and b"IEND" not in tail:
+        return "; the file ends before its IEND chunk: it is truncated"
+    if head[:2] == b"\xff\xd8" and b"\xff\xd9" not in tail:
+        return "; the file ends before its end-of-image marker: it is truncated"
+    return ""
+
+
 def _too_large(width: int, height: int) -> bool:
     return width * height > MAX_IMAGE_PIXELS or width > MAX_IMAGE_SIDE or height > MAX_IMAGE_SIDE
 
@@ -157,7 +174,7 @@ def read_image(path: PathLike, *, grayscale: bool = False) -> np.ndarray:
         said = f"; the decoder said: {'; '.join(noise)}" if noise else ""
         raise FileFormatError(
             f"cannot decode image {p} ({data.size} bytes): not an image format OpenCV reads, or the "
-            f"file is truncated or corrupt{said}"
+            f"file is truncated or corrupt{_truncated(data)}{said}"
         )
     for line in noise:  # a decoded image with warnings (an odd colour profile, ...): for -vv only
         log.debug("%s: %s", p, line)
