@@ -15,14 +15,14 @@ the first frame (``NAME_overlay.png``, ``NAME_birdseye.png``), as ``guide --save
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 
 import cv2
 
 from benchmarks.guide_cost import oakd_pipeline
-from stereo_classic.guide import Guide, fit_ground, sample_points
+from stereo_classic.guide import Guide, fit_ground
+from stereo_classic.guide.core import frame_points
 from stereo_classic.guide.render import draw_birdseye, draw_overlay
 from stereo_classic.io import read_image
 
@@ -46,11 +46,7 @@ def measure(data: Path, frames: int = 5, model: str | None = "yolox_nano", save:
             g = first.ground
             seeded = []
             if seeds:
-                disparity = result.disparity.measured_disparity  # as Guide samples a frame: measured pixels only
-                h, w = disparity.shape
-                stride = max(2, round(math.sqrt(h * w / 12000.0)))        # as Guide samples a frame
-                pts = sample_points(disparity, rig, stride=stride, max_depth=max(2.5 * guide.params.look_ahead, 10.0),
-                                    image=result.left)
+                pts = frame_points(result.disparity.measured_disparity, rig, guide.params, result.left)  # as Guide
                 fits = [fit_ground(pts, rig.focal_px * rig.baseline_m, rng=i) for i in range(seeds)]
                 seeded = [(f.height_m, f.pitch_deg) if f else None for f in fits]
             rows.append({"scene": scene, "seeded": seeded, "height_m": g.height_m if g else None,

@@ -11,11 +11,11 @@ from stereo_classic.guide.core import Guide, GuideFrame, TrackView
 from stereo_classic.guide.dropoff import DropOff, find_dropoff
 from stereo_classic.guide.ground import (
     GroundPlane,
-    GroundTracker,
     PointSample,
     fit_ground,
     sample_points,
 )
+from stereo_classic.guide.ground_tracker import GroundTracker
 from stereo_classic.guide.messages import (
     KINDS,
     PRIORITIES,

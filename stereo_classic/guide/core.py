@@ -26,10 +26,10 @@ from stereo_classic.guide._stats import percentile
 from stereo_classic.guide.dropoff import DropOff, find_dropoff
 from stereo_classic.guide.ground import (
     GroundPlane,
-    GroundTracker,
     PointSample,
     sample_points,
 )
+from stereo_classic.guide.ground_tracker import GroundTracker
 from stereo_classic.guide.messages import Candidate, Event, MessagePolicy
 from stereo_classic.guide.obstacles import (
     Obstacle,
@@ -67,6 +67,17 @@ class TrackView:
     @property
     def clock(self) -> int:
         return clock_of(self.bearing_deg)
+
+
+def frame_points(disparity: np.ndarray, rig: RectifiedRig, params: GuideParams,
+                 image: np.ndarray | None = None) -> PointSample:
+    """The samples one frame's ground, obstacles and drop-offs are found in: about 12 000 pixels of
+    ``disparity`` (measured pixels only, NaN elsewhere) on a regular grid, back-projected out to 2.5 times the
+    look-ahead (at least 10 m), textured where the left ``image`` says so
+    (:func:`~stereo_classic.guide.ground.sample_points`)."""
+    h, w = disparity.shape
+    stride = max(2, round(math.sqrt(h * w / 12000.0)))
+    return sample_points(disparity, rig, stride=stride, max_depth=max(2.5 * params.look_ahead, 10.0), image=image)
 
 
 @dataclass(frozen=True, eq=False)
@@ -207,12 +218,11 @@ class Guide:
     def _process(self, result: Any, rig: RectifiedRig, disparity: np.ndarray, time_s: float, name: str,
                  notes: list[str]) -> GuideFrame:
         p = self.params
-        h, w = disparity.shape
-        stride = max(2, round(math.sqrt(h * w / 12000.0)))
+        w = disparity.shape[1]
         fb = float(rig.focal_px * rig.baseline_m)
         left = getattr(result, "left", None)
-        points = sample_points(disparity, rig, stride=stride, max_depth=max(2.5 * p.look_ahead, 10.0),
-                               image=left if isinstance(left, np.ndarray) else None)
+        points = frame_points(disparity, rig, p, left if isinstance(left, np.ndarray) else None)
+        stride = points.stride
         codes = {getattr(w, "code", "") for w in getattr(result, "warnings", ()) or ()}
         edge_ahead = self._edge_ahead(time_s)            # a tracked drop-off edge ahead, predicted to this frame
         if codes & _NOT_MEASURED:  # a swapped or mismatched pair: its depths are not the scene's
