@@ -429,9 +429,9 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
         agree on (:func:`consensus`), else None. They run one after the other until a majority agrees or none
         can any more (a floor seen well: three). One search's answer depends on its draw where several
         surfaces compete (a corridor showing a strip of floor beside a stairwell: 0.47 to 1.83 m over eight
-        seeds; 5 searches: 1.35 to 1.39 m or unknown, ``python -m benchmarks.guide_ground --seeds 8``); a
-        well-seen floor gives the same plane in every search. 1 = one search, taken as it is. Unused with
-        ``up`` (nothing is drawn).
+        seeds; 5 searches: 1.32 to 1.45 m for 5 of the seeds, unknown for 3, ``python -m benchmarks.guide_ground
+        --seeds 8``); a well-seen floor gives the same plane in every search. 1 = one search, taken as it is.
+        Unused with ``up`` (nothing is drawn).
 
     Returns
     -------
