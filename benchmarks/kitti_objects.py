@@ -1,7 +1,8 @@
 """Per-object distance against KITTI 3D labels: ``run`` vs OpenCV 3WAY + the same fusion vs a DepthAI-style median.
 
 For each labelled car (not ``DontCare``) of a KITTI object frame the reference is the depth of its visible surface:
-the LiDAR points inside its labelled 3D box (:func:`stereo_classic.datasets.lidar_points_in_labels`), their median
+the LiDAR points inside its labelled 3D box (:func:`stereo_classic.datasets.lidar_points_in_labels`) that project
+into the left image (:func:`in_view`: a truncated car's box reaches past the border, out of view), their median
 depth along the left camera's optical axis (``z + P2[2, 3]``, camera 2) and their 10th percentile (the nearest
 surface). Each label is matched to a vehicle detection of the default detector by 2D IoU (>= 0.5, Hungarian).
 
@@ -35,7 +36,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["DEFAULT_METHODS", "half_box_median", "kitti_object_benchmark", "main", "match_labels", "render_markdown"]
+__all__ = ["DEFAULT_METHODS", "half_box_median", "in_view", "kitti_object_benchmark", "main", "match_labels",
+           "render_markdown"]
 
 log = logging.getLogger("benchmarks.kitti_objects")
 
@@ -125,6 +127,23 @@ def half_box_median(disparity: np.ndarray, box: Sequence[float], rig: Any) -> tu
     return float(np.median(rig.focal_px * rig.baseline_m / known)), int(known.size)
 
 
+def in_view(points: np.ndarray, p2: np.ndarray, width: int, height: int) -> np.ndarray:
+    """The rows of ``points`` ((N, 3) rectified camera coordinates, metres) that project with ``p2`` (3x4) into a
+    ``width`` x ``height`` image in front of the camera: what the camera sees of a box. A truncated car's LiDAR
+    points reach past the image border, where neither camera nor matcher sees it.
+
+    >>> p2 = np.array([[100.0, 0, 50, 0], [0, 100.0, 20, 0], [0, 0, 1, 0]])
+    >>> in_view(np.array([[0.0, 0, 2], [2.0, 0, 2], [0.0, 0, -2]]), p2, 100, 40).tolist()
+    [[0.0, 0.0, 2.0]]
+    """
+    pts = np.asarray(points, np.float64).reshape(-1, 3)
+    uvw = pts @ p2[:, :3].T + p2[:, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u, v = uvw[:, 0] / uvw[:, 2], uvw[:, 1] / uvw[:, 2]
+        keep = (uvw[:, 2] > 0) & (u >= 0) & (u <= width - 1) & (v >= 0) & (v <= height - 1)
+    return pts[keep]
+
+
 def _pct(value: float | None, ref: float | None) -> float | None:
     if value is None or ref is None or not math.isfinite(value) or ref <= 0:
         return None
@@ -172,7 +191,8 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
     -------
     dict
         ``objects`` (one dict per benchmarked label: ``label_index`` (0-based row of the file), ``truncated``,
-        ``occluded``, ``lidar_points``, ``reference_m`` (median), ``reference_p10_m``, ``detection`` (None when
+        ``occluded``, ``lidar_points`` (in view), ``lidar_points_in_box``, ``reference_m`` (median), ``reference_p10_m``,
+        ``detection`` (None when
         unmatched), ``methods`` {name: ``distance_m``, ``status``, ``error_pct`` (signed), and for the fusion
         methods ``nearest_m``, ``nearest_error_pct`` (against ``reference_p10_m``)}), ``bar`` (per method: whether
         every detected non-truncated car is within :data:`BAR_PCT`), ``unmatched_detections``, the settings.
@@ -233,14 +253,18 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
     matches = match_labels(np.array([labels[i].box2d for i in wanted]).reshape(-1, 4), det_boxes[vehicles])
 
     objects = []
+    height, width = scene.left.shape[:2]
     for li, match in zip(wanted, matches):
         lab, pts = labels[li], inside[li]
+        box_points = 0 if pts is None else len(pts)
+        pts = in_view(pts, p2, width, height) if box_points else None
         depth = pts[:, 2] + p2[2, 3] if pts is not None and len(pts) else np.zeros(0)
         ref = float(np.median(depth)) if depth.size else None
         ref10 = float(np.percentile(depth, 10)) if depth.size else None
         row: dict[str, Any] = {
             "label_index": li, "type": lab.type, "truncated": lab.truncated, "occluded": lab.occluded,
             "box2d": list(lab.box2d), "label_z_m": lab.location[2], "lidar_points": int(depth.size),
+            "lidar_points_in_box": box_points,
             "reference_m": ref, "reference_p10_m": ref10, "detection": None, "methods": {},
         }
         if match is not None:
@@ -279,8 +303,9 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
         "matcher": {k: (v if isinstance(v, (int, float, str, bool, type(None))) else repr(v)) for k, v in shown.items()},
         "fusion": {k: (list(v) if isinstance(v, tuple) else v) for k, v in dataclasses.asdict(fusion).items()},
         "warnings": [w.code for w in result.warnings],
-        "reference": "LiDAR points inside the labelled 3D box: median (reference_m) and 10th percentile "
-                     "(reference_p10_m) of their depth along the left camera's optical axis (z + P2[2,3])",
+        "reference": "LiDAR points inside the labelled 3D box that project into the left image (the visible "
+                     "surface): median (reference_m) and 10th percentile (reference_p10_m) of their depth along "
+                     "the left camera's optical axis (z + P2[2,3])",
         "bar_pct": BAR_PCT, "max_truncation": MAX_TRUNCATION, "min_iou": MIN_IOU,
         "objects": objects, "unmatched_detections": unmatched, "bar": bar,
         "nearest": {"available": True, "reason": ""},  # LocalizedObjects.nearest_m: the fusion reports it
@@ -299,7 +324,7 @@ def render_markdown(result: dict[str, Any]) -> str:
     if not result.get("available", False):
         return f"Per-object distance against KITTI labels: not available ({result.get('reason', '')})\n"
     methods = result["methods"]
-    head = ["label", "trunc.", "occl.", "LiDAR pts", "LiDAR median (m)", "LiDAR p10 (m)", "detection (IoU)"]
+    head = ["label", "trunc.", "occl.", "LiDAR pts in view (in box)", "LiDAR median (m)", "LiDAR p10 (m)", "detection (IoU)"]
     for name in methods:
         head.append(f"{_TITLES[name]} m (err %)")
     near_methods = [m for m in methods if m in _FUSION_METHODS]
@@ -307,7 +332,8 @@ def render_markdown(result: dict[str, Any]) -> str:
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for o in result["objects"]:
         det = o["detection"]
-        cells = [str(o["label_index"]), f"{o['truncated']:.2f}", str(o["occluded"]), str(o["lidar_points"]),
+        cells = [str(o["label_index"]), f"{o['truncated']:.2f}", str(o["occluded"]),
+                 f"{o['lidar_points']} ({o.get('lidar_points_in_box', o['lidar_points'])})",
                  _fmt(o["reference_m"]), _fmt(o["reference_p10_m"]),
                  "not detected" if det is None else f"{det['label']} ({det['iou']:.2f})"]
         for name in methods:

@@ -102,6 +102,27 @@ def test_every_labelled_car_has_a_lidar_reference_and_is_matched_or_reported(kit
                 assert entry["error_pct"] == pytest.approx(100 * (entry["distance_m"] / o["reference_m"] - 1))
 
 
+def test_the_reference_is_what_the_camera_sees_of_the_box(kitti_result):
+    """The near car is 81 % truncated by the image's right border: of the 4145 LiDAR points in its box only those
+    that project into the left image are its visible surface (before, the points past the border made its
+    reference 2.72 m, nearer than anything the camera sees of it); the cars in full view keep every point."""
+    objects = kitti_result["objects"]
+    for o in objects:
+        if o["truncated"] == 0:
+            assert o["lidar_points"] == o["lidar_points_in_box"]
+    near = objects[0]
+    assert near["truncated"] > 0.5 and 0 < near["lidar_points"] < 0.5 * near["lidar_points_in_box"]
+    assert near["reference_m"] == pytest.approx(3.52, abs=0.01) and near["reference_p10_m"] == pytest.approx(2.66, abs=0.01)
+
+
+def test_in_view_keeps_the_points_that_project_into_the_image():
+    p2 = np.array([[700.0, 0, 600, 45.0], [0, 700.0, 180, 0], [0, 0, 1, 0.005]])
+    pts = np.array([[0.0, 0, 5], [5.0, 0, 5], [-5.0, 0, 5], [0, 3.0, 5], [0.0, 0, -5], [0.8, 0.2, 3]])
+    kept = ko.in_view(pts, p2, 1242, 375)
+    np.testing.assert_array_equal(kept, pts[[0, 5]])
+    assert ko.in_view(np.zeros((0, 3)), p2, 1242, 375).shape == (0, 3)
+
+
 def test_fusion_nearest_surface_and_the_bar(kitti_result):
     res = kitti_result
     assert res["nearest"]["available"], res["nearest"]["reason"]  # the fusion reports its nearest surface
