@@ -191,11 +191,11 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
     -------
     dict
         ``objects`` (one dict per benchmarked label: ``label_index`` (0-based row of the file), ``truncated``,
-        ``occluded``, ``lidar_points`` (in view), ``lidar_points_in_box``, ``reference_m`` (median), ``reference_p10_m``,
-        ``detection`` (None when
-        unmatched), ``methods`` {name: ``distance_m``, ``status``, ``error_pct`` (signed), and for the fusion
-        methods ``nearest_m``, ``nearest_error_pct`` (against ``reference_p10_m``)}), ``bar`` (per method: whether
-        every detected non-truncated car is within :data:`BAR_PCT`), ``unmatched_detections``, the settings.
+        ``occluded``, ``lidar_points`` (in view), ``lidar_points_in_box``, ``reference_m`` (median),
+        ``reference_p10_m``, ``detection`` (None when unmatched), ``methods`` {name: ``distance_m``, ``status``,
+        ``error_pct`` (signed), and for the fusion methods ``nearest_m``, ``nearest_error_pct`` (against
+        ``reference_p10_m``)}), ``bar`` (per method: whether every detected non-truncated car is within
+        :data:`BAR_PCT`), ``unmatched_detections``, the settings.
     """
     import cv2  # noqa: F401 - OpenCV is a runtime dependency; imported here to fail early and plainly
 

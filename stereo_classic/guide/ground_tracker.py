@@ -76,10 +76,10 @@ class GroundTracker:
             points = PointSample(points.uv[near], points.xyz[near], points.stride, points.focal_px,
                                  None if points.textured is None else points.textured[near])
         kw = {"rng": self._frame, "min_width": self.params.corridor_width}  # the walking corridor fits on it
-        # Near the last plane one search is enough: the prior leaves one surface to find, and a lasting change is
-        # adopted only after ``switch_after`` agreeing frames. Without one, several searches must agree.
         if self.params.camera_pitch is not None:   # the ground's up is known: search its offset only
             kw["up"] = GroundPlane.from_mounting(1.0, self.params.camera_pitch).up
+        # Near the last plane one search is enough: the prior leaves one surface to find, and a lasting change is
+        # adopted only after ``switch_after`` agreeing frames. Without one, several searches must agree.
         fit = fit_ground(points, focal_baseline, prior=prior, restarts=1 if prior is not None else 5, **kw)
         if fit is None and prior is not None:
             fit = fit_ground(points, focal_baseline, prior=None, **kw)   # moved a lot
