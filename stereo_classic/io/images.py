@@ -74,7 +74,7 @@ def header_size(data: np.ndarray | bytes) -> tuple[int, int] | None:
 def _truncated(data: np.ndarray | bytes) -> str:
     """Why a PNG or JPEG that did not decode looks cut short, from its own structure; "" when it does not.
 
-    Decoders do not always say so themselves (OpenCV 5's PNG reader fails a truncated file silently).
+    Decoders do not always say so themselves (OpenCV 5.1's PNG reader fails a truncated file silently).
 
     >>> _truncated(b"\\x89PNG\\r\\n\\x1a\\n" + bytes(20))
     '; the file ends before its IEND chunk: it is truncated'
