@@ -34,7 +34,8 @@ from stereo_classic.guide._kernels import inlier_mask, inlier_scatter, score_hyp
 from stereo_classic.guide._stats import median, percentile
 from stereo_classic.guide.params import ESTIMATED_HEIGHT_RANGE
 
-__all__ = ["AGREE_DEG", "AGREE_M", "GroundPlane", "PointSample", "agree", "consensus", "fit_ground", "sample_points"]
+__all__ = ["AGREE_DEG", "AGREE_M", "RESTARTS", "GroundPlane", "PointSample", "agree", "consensus", "fit_ground",
+           "sample_points"]
 
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -395,10 +396,14 @@ class _Search:
         return self.cand @ ground.up + ground.height_m < -3 * self.band
 
 
+#: Independent searches of one frame's ground without a prior (``fit_ground``'s ``restarts``).
+RESTARTS = 5
+
+
 def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane | None = None,
                max_tilt_deg: float = 35.0, max_roll_deg: float = 15.0, iterations: int = 64, rng: int = 0,
                height_range: tuple[float, float] = ESTIMATED_HEIGHT_RANGE, min_width: float = 1.0,
-               up: np.ndarray | None = None, restarts: int = 5) -> GroundPlane | None:
+               up: np.ndarray | None = None, restarts: int = RESTARTS) -> GroundPlane | None:
     """The ground plane of one frame, or None when the points show none that fits a carried camera.
 
     Parameters
@@ -471,7 +476,7 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
         ground = _choose(search)
         if ground is not None:
             planes.append(_plane(ground, cand, focal_baseline))
-        best = max((sum(agree(p, q) for q in planes) for p in planes), default=0)
+        best = len(_largest_group(planes))
         if 2 * best > restarts or 2 * (best + restarts - done) <= restarts:
             break                                        # a majority agrees, or none can any more
     return consensus(planes, restarts)
@@ -513,15 +518,20 @@ def agree(a: GroundPlane, b: GroundPlane) -> bool:
     return angle < AGREE_DEG and abs(a.height_m - b.height_m) < AGREE_M
 
 
+def _largest_group(planes: list[GroundPlane]) -> list[GroundPlane]:
+    """The planes that agree with the one most others agree with (the first such): [] when there are none."""
+    if not planes:
+        return []
+    votes = [sum(agree(p, q) for q in planes) for p in planes]
+    centre = planes[int(np.argmax(votes))]
+    return [q for q in planes if agree(centre, q)]
+
+
 def consensus(planes: list[GroundPlane], searches: int) -> GroundPlane | None:
     """The plane that more than half of ``searches`` independent searches agree on (:func:`agree`): the mean
     normal and height of the largest agreeing group, around the plane most others agree with (the first such);
     None when no group is a majority (a search that found no ground votes for none)."""
-    if not planes:
-        return None
-    votes = [sum(agree(p, q) for q in planes) for p in planes]
-    centre = planes[int(np.argmax(votes))]
-    group = [q for q in planes if agree(centre, q)]
+    group = _largest_group(planes)
     if 2 * len(group) <= searches:
         return None
     up = np.mean([q.up for q in group], axis=0)

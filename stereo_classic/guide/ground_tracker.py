@@ -7,7 +7,13 @@ after a few frames, a frame without a fit keeps the last plane, and a given ``--
 
 from __future__ import annotations
 
-from stereo_classic.guide.ground import GroundPlane, PointSample, agree, fit_ground
+from stereo_classic.guide.ground import (
+    RESTARTS,
+    GroundPlane,
+    PointSample,
+    agree,
+    fit_ground,
+)
 from stereo_classic.guide.params import HEIGHT_RANGE, GuideParams
 
 __all__ = ["EDGE_MARGIN_M", "GroundTracker"]
@@ -80,7 +86,7 @@ class GroundTracker:
             kw["up"] = GroundPlane.from_mounting(1.0, self.params.camera_pitch).up
         # Near the last plane one search is enough: the prior leaves one surface to find, and a lasting change is
         # adopted only after ``switch_after`` agreeing frames. Without one, several searches must agree.
-        fit = fit_ground(points, focal_baseline, prior=prior, restarts=1 if prior is not None else 5, **kw)
+        fit = fit_ground(points, focal_baseline, prior=prior, restarts=1 if prior is not None else RESTARTS, **kw)
         if fit is None and prior is not None:
             fit = fit_ground(points, focal_baseline, prior=None, **kw)   # moved a lot
         fit = self._given(fit)
