@@ -9,10 +9,17 @@ whether the step removes mostly wrong pixels (good) or mostly right ones (lost d
 
 The bound: no filter of these winners, however clever, can do better at density ``t`` (% of ground-truth pixels)
 than removing only bad pixels: bad-2 >= (raw bad - (raw density - t)) / t. When that bound is above a target, no
-post-processing closes it; the winners themselves (cost, aggregation, penalties) must change.
+post-processing closes it; the winners themselves (cost, aggregation, penalties) must change. A harder bound, for
+any matcher: a pixel that only the left image sees (outside the right image, or hidden there behind a nearer
+surface) has no correspondence to measure, so the share of the ground truth seen by both views
+(:func:`benchmarks.metrics.visible_in_both`, from dense ground truth) caps the density of correct measurements;
+the table gives it, and how many measured pixels are seen by the left view only and how many of those are wrong.
 
     python -m benchmarks.density [--data DIR] [--scenes NAME ...] [--threads N] [--target FAMILY=DENSITY]
-                                 [--set FIELD=VALUE ...]
+                                 [--set FIELD=VALUE ...] [--compare METHOD ...]
+
+``--compare`` scores benchmark methods (``sc-default``, ``ocv-3way``, ...: their measured pixels, with the
+benchmark's settings) on the pixels both views see and on those only the left view sees.
 
 Percentages are per scene, then averaged over the scenes of a family (as the benchmark's report does), with
 the benchmark's own scene loader and disparity range. Pixels without ground truth never count.
@@ -32,7 +39,7 @@ import numpy as np
 
 from benchmarks.scenes import FAMILIES, BenchScene, default_data_dir, disparity_range, load_scenes
 
-__all__ = ["STEPS", "bad2_floor", "family_table", "main", "removal_masks", "step_rows"]
+__all__ = ["STEPS", "bad2_floor", "compare_table", "family_table", "main", "removal_masks", "seen_rows", "step_rows"]
 
 log = logging.getLogger("benchmarks")
 
@@ -71,7 +78,10 @@ def step_rows(raw: np.ndarray, removed: dict[str, np.ndarray], kept: np.ndarray,
     measured pixels), ``dense_bad2`` (the benchmark's dense view of the matcher's output: the measured pixels,
     filled by ``stereo_classic``'s ``fill_holes`` when ``fill_holes``), and per step ``<step>_removed`` (% of
     ground-truth pixels) and ``<step>_bad2`` (% of those removed that were wrong by more than 2 px; NaN when it
-    removed none). Ground truth: NaN where there is none."""
+    removed none); ``visible`` (% of the ground-truth pixels seen by both views,
+    :func:`benchmarks.metrics.visible_in_both`: the most a matcher can measure by matching), ``hidden_measured``
+    (% of them measured although only the left view sees them) and ``hidden_bad2`` (how many of those are wrong).
+    Ground truth: NaN where there is none."""
     from benchmarks.metrics import error_metrics
     from stereo_classic.matching.postprocess import fill_holes as fill
 
@@ -88,11 +98,64 @@ def step_rows(raw: np.ndarray, removed: dict[str, np.ndarray], kept: np.ndarray,
     out = {"raw_density": pct(has, n), "raw_bad2": pct(bad & has, has),
            "density": pct(kept & known, n), "bad2": pct(bad & kept & known, kept & known)}
     measured = np.where(kept, raw, np.nan).astype(np.float32)
+    seen = seen_rows(measured, gt)
+    out.update(visible=seen["visible"], hidden_measured=seen["hidden_measured"], hidden_bad2=seen["hidden_bad2"])
     out["dense_bad2"] = float(error_metrics(fill(measured) if fill_holes else measured, gt)["dense"]["bad2"] or 0.0)
     for step in STEPS:
         mask = removed[step] & known
         out[f"{step}_removed"] = pct(mask, n)
         out[f"{step}_bad2"] = pct(bad & mask, mask)
+    return out
+
+
+def seen_rows(measured: np.ndarray, gt: np.ndarray) -> dict[str, float]:
+    """Percentages of one method's measured pixels (NaN elsewhere) on one scene, split by what the views see
+    (:func:`benchmarks.metrics.visible_in_both`): ``visible`` (% of the ground-truth pixels both views see),
+    ``density`` (% of the ground-truth pixels measured),
+    ``seen_share`` (% of the pixels both views see that are measured), ``seen_bad2`` (bad-2 there),
+    ``hidden_measured`` (% of the ground truth measured although only the left view sees it), ``hidden_bad2``
+    (bad-2 of those; NaN when none) and ``bad2`` (bad-2 of every measured pixel)."""
+    from benchmarks.metrics import visible_in_both
+
+    known = np.isfinite(gt)
+    seen = visible_in_both(gt) & known
+    has = np.isfinite(measured) & known
+    with np.errstate(invalid="ignore"):
+        bad = has & (np.abs(measured - gt) > _BAD)
+
+    def pct(num: np.ndarray, den: np.ndarray) -> float:
+        total = int(den.sum())
+        return 100.0 * int(num.sum()) / total if total else float("nan")
+
+    return {"visible": pct(seen, known), "density": pct(has, known), "seen_share": pct(has & seen, seen), "seen_bad2": pct(bad & seen, has & seen),
+            "hidden_measured": pct(has & ~seen, known), "hidden_bad2": pct(bad & ~seen, has & ~seen),
+            "bad2": pct(bad, has)}
+
+
+def compare_table(rows: dict[str, Sequence[dict[str, float]]]) -> list[str]:
+    """Markdown lines: per method (name -> its :func:`seen_rows` per scene) the means over the scenes."""
+    def mean(values: Sequence[dict[str, float]], key: str) -> float:
+        kept = [r[key] for r in values if not np.isnan(r[key])]
+        return float(np.mean(kept)) if kept else float("nan")
+
+    header = ("| method | measured (% of GT) | valid bad-2 | measured of what both views see % | bad-2 there | "
+              "measured, seen by the left view only (% of GT) | bad-2 of those |")
+    lines = [header, "|---|---|---|---|---|---|---|"]
+    for name, values in rows.items():
+        lines.append(f"| {name} | {mean(values, 'density'):.1f} | {mean(values, 'bad2'):.2f} | "
+                     f"{mean(values, 'seen_share'):.1f} | {mean(values, 'seen_bad2'):.2f} | "
+                     f"{mean(values, 'hidden_measured'):.2f} | {mean(values, 'hidden_bad2'):.1f} |")
+    return lines
+
+
+def _compare(scene: BenchScene, methods: Sequence[Any], threads: int) -> dict[str, dict[str, float]]:
+    from benchmarks.methods import Setup, output_views
+
+    setup = Setup(num_disparities=disparity_range(scene), block_size=5, threads=threads)
+    out = {}
+    for method in methods:
+        _, measured = output_views(method.prepare(setup)(scene.left, scene.right), scene.gt_disparity.shape)
+        out[method.name] = seen_rows(measured, scene.gt_disparity)
     return out
 
 
@@ -123,6 +186,9 @@ def family_table(rows: Sequence[dict[str, float]], target_density: float | None 
     for step in STEPS:
         lines.append(f"| {step} | {mean(step + '_removed'):.2f} | {mean(step + '_bad2'):.1f} |")
     lines.append(f"| = measured pixels | density {mean('density'):.1f} | valid bad-2 {mean('bad2'):.2f} |")
+    lines.append(f"| of them seen by the left view only (no correspondence) | {mean('hidden_measured'):.2f} | "
+                 f"{mean('hidden_bad2'):.1f} |")
+    lines.append(f"| ground truth seen by both views (the most matching can measure) | density {mean('visible'):.1f} | |")
     lines.append(f"| output (dense view) | | dense bad-2 {mean('dense_bad2'):.2f} |")
     if target_density is not None:
         floor = np.mean([bad2_floor(r["raw_bad2"], r["raw_density"], min(target_density, r["raw_density"]))
@@ -160,6 +226,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="also print the best valid bad-2 any filter reaches at this density (repeatable)")
     parser.add_argument("--set", type=_parse_setting, action="append", default=[], metavar="FIELD=VALUE",
                         help="an SGMParams field for every run, e.g. p1=56 (repeatable; default: the defaults)")
+    parser.add_argument("--compare", nargs="+", default=[], metavar="METHOD",
+                        help="also score these benchmark methods (e.g. sc-default ocv-3way) on the pixels both views "
+                             "see and on those only the left one sees")
     parser.add_argument("-v", "--verbose", action="store_true", help="one line per scene on stderr")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING, format="%(message)s")
@@ -174,6 +243,13 @@ def main(argv: list[str] | None = None) -> int:
     except (TypeError, ValueError) as exc:
         print(f"error: --set: {exc}", file=sys.stderr)
         return 2
+    try:
+        from benchmarks.methods import default_methods
+
+        compared = default_methods(args.compare) if args.compare else []
+    except ValueError as exc:
+        print(f"error: --compare: {exc}", file=sys.stderr)
+        return 2
     data = Path(args.data) if args.data else default_data_dir()
     try:
         scenes = [s for s in load_scenes(data, args.scenes) if s.gt_disparity is not None]
@@ -185,17 +261,23 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     targets = dict(args.target)
     per_family: dict[str, list[dict[str, float]]] = {}
+    per_method: dict[str, dict[str, list[dict[str, float]]]] = {}
     for scene in scenes:
         row = step_rows(*removal_masks(scene, **{"threads": args.threads, **settings}), scene.gt_disparity,
                         fill_holes=bool(settings.get("fill_holes", True)))
         log.info("%s: %s", scene.name, ", ".join(f"{k} {v:.2f}" for k, v in row.items()))
         per_family.setdefault(scene.family, []).append(row)
+        for name, seen in _compare(scene, compared, args.threads).items():
+            per_method.setdefault(scene.family, {}).setdefault(name, []).append(seen)
     for family in FAMILIES:
         if family in per_family:
             rows = per_family[family]
             what = ", ".join(f"{k}={v!r}" for k, v in settings.items()) or "matcher defaults"
             print(f"\n*{family}: mean over {len(rows)} scene(s), {what}, pipeline order*\n")
             print("\n".join(family_table(rows, targets.get(family))))
+            if family in per_method:
+                print(f"\n*{family}: the methods' measured pixels by what the views see (benchmark settings)*\n")
+                print("\n".join(compare_table(per_method[family])))
     return 0
 
 

@@ -10,7 +10,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from benchmarks.metrics import error_metrics, mean_metrics, scene_metrics
+from benchmarks.metrics import (
+    error_metrics,
+    mean_metrics,
+    scene_metrics,
+    visible_in_both,
+)
 
 NAN = np.nan
 INF = np.inf
@@ -151,3 +156,41 @@ def test_property_well_formed(gt, data):
     if m["valid"]["n"]:
         assert m["valid"]["rms"] >= m["valid"]["epe"] - 1e-9 >= -1e-9
         assert m["all"]["bad2"] >= m["valid"]["bad2"] * m["valid"]["n"] / n_known - 1e-9
+
+
+def test_visible_in_both_hides_what_a_nearer_surface_covers_and_what_leaves_the_image():
+    # background 2 px, a block 6 px at x 10..14: the block covers right columns 4..8, which the background
+    # pixels x 6..10 would land on (x - 2); x 0, 1 land left of the right image
+    gt = np.full((3, 20), 2.0, np.float32)
+    gt[:, 10:15] = 6.0
+    gt[2, 3] = NAN  # no ground truth: never visible, never a surface
+    v = visible_in_both(gt)
+    hidden = [x for x in range(20) if not v[0, x]]
+    assert hidden == [0, 1, 6, 7, 8, 9]  # x=10 is the block itself (6 px: lands on 4)
+    assert not v[2, 3] and v[2, 4]
+    # a surface within the tolerance does not hide: a slant of 0.5 px per pixel
+    slant = np.tile(np.arange(20, dtype=np.float32)[None, :] * 0.5 + 1.0, (2, 1))
+    assert visible_in_both(slant)[:, 2:].all()
+    # fractional landing: either column around it counts
+    gt2 = np.full((1, 12), 1.5, np.float32)
+    gt2[0, 8] = 5.0  # lands on 3.0; background pixel x=4.5 - 1.5 -> 3.0 would need x=4.5: x=4 (2.5) and x=5 (3.5)
+    assert not visible_in_both(gt2)[0, 4] and not visible_in_both(gt2)[0, 5] and visible_in_both(gt2)[0, 6]
+
+
+@pytest.mark.parametrize("tol", [-1.0, NAN, INF])
+def test_visible_in_both_rejects_a_bad_tolerance(tol):
+    with pytest.raises(ValueError, match="tolerance"):
+        visible_in_both(np.ones((2, 2), np.float32), tol)
+
+
+def test_visible_in_both_agrees_with_the_datasets_occlusion_masks(shared_data):
+    from benchmarks.scenes import load_scenes
+
+    scenes = [s for s in load_scenes(shared_data, ["Adirondack", "Motorcycle"]) if s.nonocc_mask is not None]
+    if not scenes:
+        pytest.skip("no scene with an occlusion mask in the shared data")
+    for scene in scenes:
+        known = np.isfinite(scene.gt_disparity)
+        v = visible_in_both(scene.gt_disparity)
+        assert abs(v[known].mean() - scene.nonocc_mask[known].mean()) < 0.01, scene.name
+        assert (v == scene.nonocc_mask)[known].mean() > 0.97, scene.name
