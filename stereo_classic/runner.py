@@ -131,20 +131,38 @@ class _DeferInterrupt:
                 _raise_signal(self.received)
 
 
-class _TermAsInterrupt:
-    """For the length of a run, SIGTERM raises :class:`Terminated` (a KeyboardInterrupt) in the main thread, so it
-    ends a run as Ctrl-C does: nothing half written, a summary, its own exit code (143)."""
+class _RunInterrupts:
+    """For the length of a run (in the main thread): SIGTERM raises :class:`Terminated` (a KeyboardInterrupt), so it
+    ends a run as Ctrl-C does (nothing half written, a summary, its own exit code 143), and both signals are also
+    remembered. A KeyboardInterrupt is raised wherever the main thread happens to be, and where that is a finalizer
+    (``__del__``, a file object's close at garbage collection) Python discards it; :meth:`check`, called between
+    frames, raises it again, so Ctrl-C cannot be lost. SIGINT is only taken over from Python's own handler (an
+    application's handler, or SIG_IGN, is left alone)."""
 
     def __enter__(self) -> Self:
+        self.received: int | None = None
         self.active = threading.current_thread() is threading.main_thread()
+        self.previous: dict[int, Any] = {}
         if self.active:
-            self.previous = signal.getsignal(signal.SIGTERM)
-            signal.signal(signal.SIGTERM, lambda signum, frame: _raise_signal(signum))
+            self.previous[signal.SIGTERM] = signal.getsignal(signal.SIGTERM)
+            if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+                self.previous[signal.SIGINT] = signal.default_int_handler
+            for s in self.previous:
+                signal.signal(s, self._handler)
         return self
 
+    def _handler(self, signum: int, frame: Any) -> None:
+        self.received = signum
+        _raise_signal(signum)
+
+    def check(self) -> None:
+        """Raise the interrupt a signal of this run asked for, if one did (even if it was raised and discarded)."""
+        if self.received is not None:
+            _raise_signal(self.received)
+
     def __exit__(self, *exc: object) -> None:
-        if self.active:
-            signal.signal(signal.SIGTERM, self.previous)
+        for s, handler in self.previous.items():
+            signal.signal(s, handler)
 
 
 @dataclass(frozen=True)
@@ -313,19 +331,23 @@ class _Collector:
         self.bar.update(1)
 
 
-def _run_overlapped(refs: Iterable[FrameRef], processor: FrameProcessor, take: Callable[[FrameOutput], None]) -> None:
+def _run_overlapped(refs: Iterable[FrameRef], processor: FrameProcessor, take: Callable[[FrameOutput], None],
+                    check: Callable[[], None] = lambda: None) -> None:
     """Process the frames here, one after another, while a writer thread writes the frame before.
 
     The files of frame N are encoded and written while frame N + 1 is read and matched, so a frame costs the
     slower of the two, not their sum; frames are still written one at a time and in order (the same bytes as
     writing them in turn). A write that fails raises here at the next frame or at the end. Ctrl-C or SIGTERM
     (raised in this, the main thread) waits for the write in progress, so that frame is complete and counted.
+    ``check`` raises an interrupt that was asked for and discarded (:class:`_RunInterrupts`); it is called after
+    each frame is processed and after the last write.
     """
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="stereo-writer") as pool:
         pending: Future | None = None
         try:
             for ref in refs:
                 out = processor.process_ref(ref)
+                check()
                 if pending is not None:
                     pending.result()
                 pending = pool.submit(take, out)
@@ -334,6 +356,7 @@ def _run_overlapped(refs: Iterable[FrameRef], processor: FrameProcessor, take: C
                 wait([pending])
         if pending is not None:
             pending.result()
+        check()
 
 
 def run_source(source: Source, writer: FrameWriter, *, params_for: Callable[[int | None], SGMParams],
@@ -402,11 +425,12 @@ def run_source(source: Source, writer: FrameWriter, *, params_for: Callable[[int
     bar = tqdm(total=len(source) or None, unit="frame", file=sys.stderr, leave=False, disable=not progress)
     collector = _Collector(writer, summary, on_frame, bar)
     try:
-        with _TermAsInterrupt():
+        with _RunInterrupts() as interrupts:
             if executor is None:
-                _run_overlapped(source.refs(skip), processor, collector.take)
+                _run_overlapped(source.refs(skip), processor, collector.take, interrupts.check)
             else:
                 executor.run(source.refs(skip), processor, collector.take)
+                interrupts.check()
     except KeyboardInterrupt as exc:
         summary.interrupted = True
         summary.signal = "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"

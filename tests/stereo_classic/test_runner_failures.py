@@ -87,6 +87,63 @@ def test_ctrl_c_during_a_write_counts_the_written_frame(tmp_path, pairs, monkeyp
     assert summary.frames == len(_lines(out)) == 2
 
 
+def test_a_ctrl_c_discarded_where_it_was_raised_still_ends_the_run(tmp_path, pairs, monkeypatch):
+    # A KeyboardInterrupt is raised wherever the main thread is; inside a finalizer (__del__, a file closed by the
+    # garbage collector) Python discards it. The run remembers the signal and ends at the next frame boundary.
+    from stereo_classic import pipeline
+
+    files, rig, _ = pairs
+    out = tmp_path / "o"
+    real_call = pipeline.Localizer.__call__
+    seen = {"n": 0, "discarded": False}
+
+    def discard_on_second(self, left, right):
+        seen["n"] += 1
+        if seen["n"] == 2:
+            try:  # what a finalizer does to an exception raised in it
+                os.kill(os.getpid(), signal.SIGINT)
+                for _ in range(10**7):  # the handler runs at the next check of the loop (bounded, never reached)
+                    pass
+            except KeyboardInterrupt:
+                seen["discarded"] = True
+        return real_call(self, left, right)
+
+    monkeypatch.setattr(pipeline.Localizer, "__call__", discard_on_second)
+    summary = run_source(PairSource(files), FrameWriter(out, sequence=True), params_for=_params, rig=rig)
+    assert seen["discarded"]
+    assert summary.interrupted and summary.signal == "SIGINT"
+    assert summary.frames == 1 and _lines(out) == ["f0_L"] and not list(out.glob("f1_L*"))
+
+
+def test_a_run_leaves_an_applications_sigint_handler_alone_and_restores_sigterm(tmp_path, pairs, monkeypatch):
+    from stereo_classic import pipeline
+
+    files, rig, _ = pairs
+    calls = []
+
+    def mine(signum, frame):
+        calls.append(signum)
+
+    previous = signal.signal(signal.SIGINT, mine)
+    term_before = signal.getsignal(signal.SIGTERM)
+    real_call = pipeline.Localizer.__call__
+    during = []
+
+    def look(self, left, right):
+        during.append((signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)))
+        return real_call(self, left, right)
+
+    monkeypatch.setattr(pipeline.Localizer, "__call__", look)
+    try:
+        summary = run_source(PairSource(files[:2]), FrameWriter(tmp_path / "o", sequence=True), params_for=_params,
+                             rig=rig)
+        assert summary.frames == 2 and not summary.interrupted
+        assert all(i is mine for i, _ in during) and all(t is not term_before for _, t in during)
+        assert signal.getsignal(signal.SIGINT) is mine and signal.getsignal(signal.SIGTERM) is term_before
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 _SCRIPT = """
 import sys
 from stereo_classic.cli import main
