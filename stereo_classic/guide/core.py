@@ -30,7 +30,12 @@ from stereo_classic.guide.ground import (
     sample_points,
 )
 from stereo_classic.guide.ground_tracker import GroundTracker
-from stereo_classic.guide.messages import Candidate, Event, MessagePolicy
+from stereo_classic.guide.messages import (
+    Candidate,
+    Event,
+    MessagePolicy,
+    ground_unknown,
+)
 from stereo_classic.guide.obstacles import (
     Obstacle,
     OccupancyGrid,
@@ -305,6 +310,8 @@ class Guide:
             if clear != 12 and ahead < p.warning_distance and best > ahead + 1.0:
                 candidates.append(Candidate("clear_path", "clear path", None, best, best,
                                             float(hours_b[list(hours).index(clear)]), None, None, False))
+        if plane is None:
+            candidates.append(ground_unknown())
         alive = {(t.kind, t.track_id) for t in self.tracker.tracks}
         events = self.policy.select(candidates, frame=name, time_s=time_s, alive=alive)
         return GuideFrame(frame=name, time_s=time_s, ground=plane, obstacles=obstacles, grid=grid, dropoff=dropoff,

@@ -1,6 +1,7 @@
 """What to say and when: events with priorities, phrasing, hysteresis, only-on-change, rate limiting, dangers first.
 
-Every frame the guide proposes candidates (tracked objects and obstacles, a drop-off, a clear path);
+Every frame the guide proposes candidates (tracked objects and obstacles, a drop-off, a clear path, and the
+``status`` "ground unknown" when it has no ground plane: then it sees no obstacle, drop-off or clear way);
 :class:`MessagePolicy` decides which become events:
 
 * **priority**: "danger" (in the corridor nearer than ``danger_distance``, or reached within ``danger_ttc``
@@ -36,10 +37,14 @@ from stereo_classic.guide.obstacles import clock_of
 from stereo_classic.guide.params import GuideParams
 from stereo_classic.guide.tracking import MIN_APPROACH
 
-__all__ = ["KINDS", "PRIORITIES", "Candidate", "Event", "MessagePolicy", "say_direction", "say_distance"]
+__all__ = ["GROUND_UNKNOWN_TEXT", "KINDS", "PRIORITIES", "Candidate", "Event", "MessagePolicy", "ground_unknown",
+           "say_direction", "say_distance"]
 
-#: Values of ``Event.kind``.
-KINDS: tuple[str, ...] = ("object", "obstacle", "drop_off", "clear_path")
+#: Values of ``Event.kind``. "status": what the guide cannot see (``label`` "ground unknown": without a ground
+#: there are no obstacles, drop-offs or clear path, so silence must not pass for a clear way).
+KINDS: tuple[str, ...] = ("object", "obstacle", "drop_off", "clear_path", "status")
+#: What the "ground unknown" status says.
+GROUND_UNKNOWN_TEXT = "ground not seen, drop-offs not checked"
 #: Values of ``Event.priority``, most urgent first.
 PRIORITIES: tuple[str, ...] = ("danger", "warning", "info")
 _FEET_PER_M = 3.28084
@@ -132,6 +137,12 @@ def say_direction(clock: int, bearing_deg: float, directions: str) -> str:
     return direction_phrase([math.sin(b), 0.0, math.cos(b)])
 
 
+def ground_unknown() -> Candidate:
+    """The status candidate of a frame without a ground plane: said once when the ground is lost (or not found
+    at the start), again only after the ground was seen in between; a warning, at 12 o'clock."""
+    return Candidate("status", "ground unknown", None, 0.0, 0.0, 0.0, None, None, in_corridor=False)
+
+
 @dataclass
 class _Said:
     clock: int
@@ -160,6 +171,8 @@ class MessagePolicy:
             return "danger" if c.nearest_m < p.warning_distance else "warning"
         if c.kind == "clear_path":
             return "info"
+        if c.kind == "status":
+            return "warning"
         if c.in_corridor and (c.nearest_m < p.danger_distance or (c.ttc_s is not None and c.ttc_s < p.danger_ttc)):
             return "danger"
         approaching = c.approach_mps is not None and c.approach_mps > MIN_APPROACH
@@ -183,6 +196,8 @@ class MessagePolicy:
 
     def _text(self, c: Candidate, clock: int, metres: float, approaching: bool) -> str:
         p = self.params
+        if c.kind == "status":
+            return GROUND_UNKNOWN_TEXT
         direction = say_direction(clock, c.bearing_deg, p.directions)
         if c.kind == "clear_path":
             return f"clear at {direction}" if p.directions == "clock" else f"clear {direction}"
@@ -202,7 +217,8 @@ class MessagePolicy:
             last = self.said.get(c.key)
             prio = self.priority(c)
             clock, metres = self._clock(c, last), self._metres(c, last)
-            approaching = c.approach_mps is not None and c.approach_mps > MIN_APPROACH and c.kind != "clear_path"
+            approaching = c.approach_mps is not None and c.approach_mps > MIN_APPROACH and c.kind in ("object", "obstacle",
+                                                                                                     "drop_off")
             changed = (last is None or clock != last.clock or metres != last.metres
                        or approaching != last.approaching or rank[prio] < rank[last.priority])
             due = prio == "danger" and last is not None and time_s - last.time_s >= p.repeat_after
@@ -215,8 +231,8 @@ class MessagePolicy:
                 continue  # the rate limit: one message that is not a danger per min_interval
             events.append(Event(
                 frame=frame, time_s=time_s, kind=c.kind, label=c.label, track_id=c.track_id,
-                distance_m=c.distance_m if c.kind != "clear_path" else None,
-                nearest_m=c.nearest_m,
+                distance_m=c.distance_m if c.kind not in ("clear_path", "status") else None,
+                nearest_m=c.nearest_m if c.kind != "status" else None,
                 clock=clock, bearing_deg=c.bearing_deg, approach_mps=c.approach_mps, ttc_s=c.ttc_s, priority=prio,
                 text=self._text(c, clock, metres, approaching),
                 interrupt=prio == "danger" and not any(e.interrupt for e in events)))

@@ -42,6 +42,7 @@ def test_ground_is_the_mounting(approach_run):
     for frame, _, _ in out:
         assert frame.ground.height_m == pytest.approx(1.2, abs=0.05)
         assert frame.ground.pitch_deg == pytest.approx(10.0, abs=1.5)
+        assert not [e for e in frame.events if e.kind == "status"]         # the ground is seen: nothing to say of it
 
 
 def test_obstacle_distance_speed_and_clock(approach_run):
@@ -208,6 +209,7 @@ def test_bad_input():
     guide = Guide()
     frame = guide.update(result, rig, 0.0)                                # no depth at all: no ground, said so
     assert frame.ground is None and frame.obstacles == [] and any("ground unknown" in n for n in frame.notes)
+    assert [(e.kind, e.text) for e in frame.events] == [("status", "ground not seen, drop-offs not checked")]
     with pytest.raises(GuideInputError, match="`time_s` must increase"):
         guide.update(result, rig, 0.0)
     with pytest.raises(GuideInputError, match="`time_s`"):

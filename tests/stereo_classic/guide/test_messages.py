@@ -7,7 +7,12 @@ import json
 import pytest
 
 from stereo_classic.guide import Candidate, Event, GuideParams, MessagePolicy
-from stereo_classic.guide.messages import say_direction, say_distance
+from stereo_classic.guide.messages import (
+    GROUND_UNKNOWN_TEXT,
+    ground_unknown,
+    say_direction,
+    say_distance,
+)
 
 
 def _c(dist=3.0, bearing=0.0, approach=None, ttc=None, kind="object", label="person", tid=1, corridor=True):
@@ -72,3 +77,21 @@ def test_event_json_and_checks():
         Event("f", 0.0, "tree", "x", None, None, None, 12, 0.0, None, None, "info", "x")
     with pytest.raises(ValueError, match="`clock`"):
         Event("f", 0.0, "object", "x", None, None, None, 13, 0.0, None, None, "info", "x")
+
+
+def test_ground_unknown_is_said_once_and_again_only_after_the_ground_was_seen():
+    policy = MessagePolicy(GuideParams())
+    (e,) = policy.select([ground_unknown()], frame="f0", time_s=0.0)
+    assert (e.kind, e.label, e.priority, e.clock, e.text) == ("status", "ground unknown", "warning", 12,
+                                                               GROUND_UNKNOWN_TEXT)
+    assert e.distance_m is None and e.nearest_m is None and not e.interrupt
+    json.dumps(e.to_dict(), allow_nan=False)
+    assert policy.select([ground_unknown()], frame="f1", time_s=5.0) == []    # still unknown: not repeated
+    assert policy.select([], frame="f2", time_s=10.0) == []                    # the ground is seen
+    assert [e.text for e in policy.select([ground_unknown()], frame="f3", time_s=15.0)] == [GROUND_UNKNOWN_TEXT]
+    # a danger comes first; the status waits for the rate limit like any message that is not a danger
+    policy = MessagePolicy(GuideParams())
+    danger = Candidate("object", "person", 1, 0.6, 0.6, 0.0, None, None)
+    assert [e.kind for e in policy.select([danger, ground_unknown()], frame="g0", time_s=0.0)] == ["object"]
+    assert [e.kind for e in policy.select([danger, ground_unknown()], frame="g1", time_s=0.5)] == []
+    assert [e.kind for e in policy.select([danger, ground_unknown()], frame="g2", time_s=3.0)] == ["status"]
