@@ -217,8 +217,7 @@ class MessagePolicy:
             last = self.said.get(c.key)
             prio = self.priority(c)
             clock, metres = self._clock(c, last), self._metres(c, last)
-            approaching = c.approach_mps is not None and c.approach_mps > MIN_APPROACH and c.kind in ("object", "obstacle",
-                                                                                                     "drop_off")
+            approaching = c.approach_mps is not None and c.approach_mps > MIN_APPROACH and c.kind != "clear_path"
             changed = (last is None or clock != last.clock or metres != last.metres
                        or approaching != last.approaching or rank[prio] < rank[last.priority])
             due = prio == "danger" and last is not None and time_s - last.time_s >= p.repeat_after
