@@ -72,6 +72,18 @@ def removal_masks(scene: BenchScene, **overrides: Any) -> tuple[np.ndarray, dict
     return raw, removed, kept
 
 
+def _pct(num: np.ndarray, den: np.ndarray | int) -> float:
+    """100 * (pixels of ``num``) / ``den`` (a count, or the pixels of a mask); NaN when ``den`` is 0."""
+    total = den if isinstance(den, int) else int(den.sum())
+    return 100.0 * int(num.sum()) / total if total else float("nan")
+
+
+def _mean(rows: Sequence[dict[str, float]], key: str) -> float:
+    """Mean of ``key`` over the scene rows that have it (not NaN); NaN when none does."""
+    values = [r[key] for r in rows if not np.isnan(r[key])]
+    return float(np.mean(values)) if values else float("nan")
+
+
 def step_rows(raw: np.ndarray, removed: dict[str, np.ndarray], kept: np.ndarray, gt: np.ndarray, *,
               fill_holes: bool = True) -> dict[str, float]:
     """Percentages of one scene: ``raw_density`` / ``raw_bad2`` (every winner kept), ``density`` / ``bad2`` (the
@@ -91,20 +103,16 @@ def step_rows(raw: np.ndarray, removed: dict[str, np.ndarray], kept: np.ndarray,
         bad = np.abs(raw - gt) > _BAD  # False where either is unknown
     has = np.isfinite(raw) & known
 
-    def pct(num: np.ndarray, den: np.ndarray | int) -> float:
-        total = den if isinstance(den, int) else int(den.sum())
-        return 100.0 * int(num.sum()) / total if total else float("nan")
-
-    out = {"raw_density": pct(has, n), "raw_bad2": pct(bad & has, has),
-           "density": pct(kept & known, n), "bad2": pct(bad & kept & known, kept & known)}
+    out = {"raw_density": _pct(has, n), "raw_bad2": _pct(bad & has, has),
+           "density": _pct(kept & known, n), "bad2": _pct(bad & kept & known, kept & known)}
     measured = np.where(kept, raw, np.nan).astype(np.float32)
     seen = seen_rows(measured, gt)
     out.update(visible=seen["visible"], hidden_measured=seen["hidden_measured"], hidden_bad2=seen["hidden_bad2"])
     out["dense_bad2"] = float(error_metrics(fill(measured) if fill_holes else measured, gt)["dense"]["bad2"] or 0.0)
     for step in STEPS:
         mask = removed[step] & known
-        out[f"{step}_removed"] = pct(mask, n)
-        out[f"{step}_bad2"] = pct(bad & mask, mask)
+        out[f"{step}_removed"] = _pct(mask, n)
+        out[f"{step}_bad2"] = _pct(bad & mask, mask)
     return out
 
 
@@ -122,29 +130,20 @@ def seen_rows(measured: np.ndarray, gt: np.ndarray) -> dict[str, float]:
     has = np.isfinite(measured) & known
     with np.errstate(invalid="ignore"):
         bad = has & (np.abs(measured - gt) > _BAD)
-
-    def pct(num: np.ndarray, den: np.ndarray) -> float:
-        total = int(den.sum())
-        return 100.0 * int(num.sum()) / total if total else float("nan")
-
-    return {"visible": pct(seen, known), "density": pct(has, known), "seen_share": pct(has & seen, seen), "seen_bad2": pct(bad & seen, has & seen),
-            "hidden_measured": pct(has & ~seen, known), "hidden_bad2": pct(bad & ~seen, has & ~seen),
-            "bad2": pct(bad, has)}
+    return {"visible": _pct(seen, known), "density": _pct(has, known), "seen_share": _pct(has & seen, seen),
+            "seen_bad2": _pct(bad & seen, has & seen), "hidden_measured": _pct(has & ~seen, known),
+            "hidden_bad2": _pct(bad & ~seen, has & ~seen), "bad2": _pct(bad, has)}
 
 
 def compare_table(rows: dict[str, Sequence[dict[str, float]]]) -> list[str]:
     """Markdown lines: per method (name -> its :func:`seen_rows` per scene) the means over the scenes."""
-    def mean(values: Sequence[dict[str, float]], key: str) -> float:
-        kept = [r[key] for r in values if not np.isnan(r[key])]
-        return float(np.mean(kept)) if kept else float("nan")
-
     header = ("| method | measured (% of GT) | valid bad-2 | measured of what both views see % | bad-2 there | "
               "measured, seen by the left view only (% of GT) | bad-2 of those |")
     lines = [header, "|---|---|---|---|---|---|---|"]
     for name, values in rows.items():
-        lines.append(f"| {name} | {mean(values, 'density'):.1f} | {mean(values, 'bad2'):.2f} | "
-                     f"{mean(values, 'seen_share'):.1f} | {mean(values, 'seen_bad2'):.2f} | "
-                     f"{mean(values, 'hidden_measured'):.2f} | {mean(values, 'hidden_bad2'):.1f} |")
+        lines.append(f"| {name} | {_mean(values, 'density'):.1f} | {_mean(values, 'bad2'):.2f} | "
+                     f"{_mean(values, 'seen_share'):.1f} | {_mean(values, 'seen_bad2'):.2f} | "
+                     f"{_mean(values, 'hidden_measured'):.2f} | {_mean(values, 'hidden_bad2'):.1f} |")
     return lines
 
 
@@ -178,8 +177,7 @@ def family_table(rows: Sequence[dict[str, float]], target_density: float | None 
     """Markdown lines for the scene rows of one family: one line per step, then the measured result (and, with
     ``target_density``, the :func:`bad2_floor` at that density, per scene then averaged)."""
     def mean(key: str) -> float:
-        values = [r[key] for r in rows if not np.isnan(r[key])]
-        return float(np.mean(values)) if values else float("nan")
+        return _mean(rows, key)
 
     lines = ["| step | removed (% of GT px) | bad-2 of the removed % |", "|---|---|---|"]
     lines.append(f"| (raw winners, nothing removed) | density {mean('raw_density'):.1f} | bad-2 {mean('raw_bad2'):.2f} |")
@@ -188,7 +186,8 @@ def family_table(rows: Sequence[dict[str, float]], target_density: float | None 
     lines.append(f"| = measured pixels | density {mean('density'):.1f} | valid bad-2 {mean('bad2'):.2f} |")
     lines.append(f"| of them seen by the left view only (no correspondence) | {mean('hidden_measured'):.2f} | "
                  f"{mean('hidden_bad2'):.1f} |")
-    lines.append(f"| ground truth seen by both views (the most matching can measure) | density {mean('visible'):.1f} | |")
+    lines.append(f"| ground truth seen by both views (the most matching can measure) | density "
+                 f"{mean('visible'):.1f} | |")
     lines.append(f"| output (dense view) | | dense bad-2 {mean('dense_bad2'):.2f} |")
     if target_density is not None:
         floor = np.mean([bad2_floor(r["raw_bad2"], r["raw_density"], min(target_density, r["raw_density"]))

@@ -122,9 +122,9 @@ def visible_in_both(gt_disparity: np.ndarray, tolerance: float = 1.0) -> np.ndar
     ``x - d`` lies outside the right image, or when a nearer surface lands on the same right pixel: a right-view
     z-buffer of the ground truth (per right column the largest disparity that lands on it, at the nearest column)
     holds, at ``x - d`` (either column around it when it falls between two), a disparity more than ``tolerance``
-    px larger than ``d``. Those pixels have no correspondence: a two-view matcher cannot measure them, only guess them, so the share
-    of the ground truth that is visible in both views bounds the density of correct measurements any matcher
-    reaches. On Adirondack and Motorcycle it marks 7.7 and 11.3 % of the ground truth occluded, against their
+    px larger than ``d``. Those pixels have no correspondence: a two-view matcher cannot measure them, only guess
+    them, so the share of the ground truth that is visible in both views bounds the density of correct
+    measurements any matcher reaches. On Adirondack and Motorcycle it marks 7.7 and 11.3 % of the ground truth occluded, against their
     datasets' occlusion masks' 8.2 and 11.5 % (the two agree on 99.3 and 98.3 % of the pixels);
     ``benchmarks.density`` prints the share per family.
 
@@ -147,7 +147,7 @@ def visible_in_both(gt_disparity: np.ndarray, tolerance: float = 1.0) -> np.ndar
         inside = known & (xr >= -0.5) & (xr < w - 0.5)
     rows = np.broadcast_to(np.arange(h)[:, None], gt.shape)
     zbuf = np.full(h * w, -np.inf)
-    at = (rows[inside] * w + np.floor(xr[inside] + 0.5).astype(np.int64))
+    at = rows[inside] * w + np.floor(xr[inside] + 0.5).astype(np.int64)
     np.maximum.at(zbuf, at, gt[inside])
     zbuf = zbuf.reshape(h, w)
     xr_in = np.where(inside, xr, 0.0)
