@@ -32,6 +32,7 @@ from calib import RectifiedRig
 from calib.geometry import points_from_pixels
 from stereo_classic.guide._kernels import inlier_mask, inlier_scatter, score_hypotheses
 from stereo_classic.guide._stats import median, percentile
+from stereo_classic.guide.gravity import LEVEL_COS
 from stereo_classic.guide.params import ESTIMATED_HEIGHT_RANGE
 
 __all__ = ["AGREE_DEG", "AGREE_M", "RESTARTS", "GroundPlane", "PointSample", "agree", "consensus", "fit_ground",
@@ -312,9 +313,10 @@ class _Search:
 
     def __init__(self, cand: np.ndarray, focal_baseline: float, ref: np.ndarray, limit: float, max_roll_deg: float,
                  iterations: int, rng: int, height_range: tuple[float, float], min_width: float,
-                 fixed_up: bool = False) -> None:
+                 fixed_up: bool = False, gravity: np.ndarray | None = None) -> None:
         self.gen = np.random.default_rng(rng)
         self.fixed_up = fixed_up                                   # ``ref`` is the ground's up: search offsets
+        self.gravity = gravity                                     # the up measured in the image, or None
         every = -(-len(cand) // MAX_POINTS)
         self.cand = cand[::every]                                  # every k-th: at most MAX_POINTS (the cost)
         self.min_support = max(30 / every, 0.15 * len(self.cand))  # 30 of all the candidates, and 15 %
@@ -365,6 +367,8 @@ class _Search:
         elif not self.fixed_up and (up @ self.ref < math.cos(self.limit) or abs(plane.roll_deg) > self.max_roll_deg
                                     or plane.pitch_deg < -5.0):
             reason = "tilt"
+        elif self.gravity is not None and up @ self.gravity < LEVEL_COS:
+            reason = "not level"
         elif n_below > 0.5 * n_in:
             reason = "points below it"
         else:
@@ -403,7 +407,8 @@ RESTARTS = 5
 def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane | None = None,
                max_tilt_deg: float = 35.0, max_roll_deg: float = 15.0, iterations: int = 64, rng: int = 0,
                height_range: tuple[float, float] = ESTIMATED_HEIGHT_RANGE, min_width: float = 1.0,
-               up: np.ndarray | None = None, restarts: int = RESTARTS) -> GroundPlane | None:
+               up: np.ndarray | None = None, restarts: int = RESTARTS, gravity: np.ndarray | None = None
+               ) -> GroundPlane | None:
     """The ground plane of one frame, or None when the points show none that fits a carried camera.
 
     Parameters
@@ -437,6 +442,13 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
         seeds; 5 searches: 1.32 to 1.45 m for 5 of the seeds, unknown for 3, ``python -m benchmarks.guide_ground
         --seeds 8``); a well-seen floor gives the same plane in every search. 1 = one search, taken as it is.
         Unused with ``up`` (nothing is drawn).
+    gravity : (3,) array, optional
+        The up direction measured in this frame's image (:func:`~stereo_classic.guide.gravity.estimate_gravity`:
+        the vanishing direction of its vertical lines), a unit vector: a plane (refitted) more than
+        :data:`~stereo_classic.guide.gravity.GRAVITY_TOLERANCE_DEG` from level is not the ground, on top of
+        the limits above (which a carried camera's tilt and roll set: the search itself is the same). Stairs
+        seen along the flight make one plane like a floor, within those limits; its 30-42 degrees from level
+        tell it apart. Unused with ``up`` (a given pitch wins).
 
     Returns
     -------
@@ -457,6 +469,12 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
     if points.textured is not None:
         xyz, uv = xyz[points.textured], uv[points.textured]
     given = None if up is None else np.asarray(up, np.float64).reshape(3) / np.linalg.norm(up)
+    level = None
+    if gravity is not None and given is None:
+        level = np.asarray(gravity, np.float64).reshape(-1)
+        if level.shape != (3,) or not np.isfinite(level).all() or not np.linalg.norm(level) > 0:
+            raise ValueError(f"`gravity` must be a finite non-zero 3-vector (the up direction), got {gravity!r}")
+        level = level / np.linalg.norm(level)
     if prior is not None:
         cand = xyz[(np.abs(prior.heights(xyz)) < 0.3) & (xyz[:, 2] < 4.0)]
         ref, limit = prior.up if given is None else given, math.radians(max_tilt_deg / 2)
@@ -467,7 +485,7 @@ def fit_ground(points: PointSample, focal_baseline: float, *, prior: GroundPlane
     if len(cand) < 30:
         return None
     search = _Search(cand, focal_baseline, ref, limit, max_roll_deg, iterations, rng, height_range, min_width,
-                     fixed_up=up is not None)
+                     fixed_up=up is not None, gravity=level)
     if up is not None:                                   # every offset is tried: nothing drawn, one search
         ground = _choose(search)
         return None if ground is None else _plane(ground, cand, focal_baseline)

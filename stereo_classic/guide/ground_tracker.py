@@ -7,6 +7,9 @@ after a few frames, a frame without a fit keeps the last plane, and a given ``--
 
 from __future__ import annotations
 
+import numpy as np
+
+from stereo_classic.guide.gravity import LEVEL_COS
 from stereo_classic.guide.ground import (
     RESTARTS,
     GroundPlane,
@@ -40,12 +43,13 @@ class GroundTracker:
         self.switch_after = switch_after
         self.plane: GroundPlane | None = None
         self._disagree = 0
+        self._tilted = 0            # frames in a row whose measured up contradicts the current plane
         self._frame = 0
         self.switched = False       # whether the last update replaced the plane by a disagreeing one
 
     def reset(self) -> None:
         self.plane = None
-        self._disagree = 0
+        self._disagree = self._tilted = 0
 
     def _given(self, plane: GroundPlane | None) -> GroundPlane | None:
         h, p = self.params.camera_height, self.params.camera_pitch
@@ -59,9 +63,13 @@ class GroundTracker:
             return None
         return GroundPlane(up, height, plane.source, plane.inliers)
 
-    def update(self, points: PointSample, focal_baseline: float, *, before_m: float | None = None
-               ) -> GroundPlane | None:
+    def update(self, points: PointSample, focal_baseline: float, *, before_m: float | None = None,
+               gravity: np.ndarray | None = None) -> GroundPlane | None:
         """The ground of this frame (None until a first plane is known).
+
+        ``gravity``: the up direction measured in this frame's image (a unit 3-vector,
+        :func:`~stereo_classic.guide.gravity.estimate_gravity`), or None: a fitted plane must then be level
+        (:func:`~stereo_classic.guide.ground.fit_ground`'s ``gravity``). A given ``camera_pitch`` wins over it.
 
         ``before_m``: a drop-off edge is known this far ahead (metres, along the current plane). The walker's
         ground then is what lies before it: only the points nearer than the edge (by ``EDGE_MARGIN_M``) are
@@ -84,15 +92,26 @@ class GroundTracker:
         kw = {"rng": self._frame, "min_width": self.params.corridor_width}  # the walking corridor fits on it
         if self.params.camera_pitch is not None:   # the ground's up is known: search its offset only
             kw["up"] = GroundPlane.from_mounting(1.0, self.params.camera_pitch).up
+        elif gravity is not None:                  # measured in the image: the ground must be level
+            kw["gravity"] = gravity
         # Near the last plane one search is enough: the prior leaves one surface to find, and a lasting change is
         # adopted only after ``switch_after`` agreeing frames. Without one, several searches must agree.
         fit = fit_ground(points, focal_baseline, prior=prior, restarts=1 if prior is not None else RESTARTS, **kw)
         if fit is None and prior is not None:
             fit = fit_ground(points, focal_baseline, prior=None, **kw)   # moved a lot
         fit = self._given(fit)
+        # the measured up says the current plane is not level ground (stairs or a ramp taken for the floor
+        # before the image showed which way is up)
+        tilted = "gravity" in kw and prior is not None and \
+            float(prior.up @ gravity) < LEVEL_COS * float(np.linalg.norm(gravity))     # (fit_ground checked it)
+        self._tilted = self._tilted + 1 if tilted else 0
         if fit is None:
             if self.plane is not None:
-                self.plane = GroundPlane(self.plane.up, self.plane.height_m, "kept", 0)
+                # kept, until the measured up has contradicted it for ``switch_after`` frames in a row
+                kept = self._tilted < self.switch_after
+                self.plane = GroundPlane(self.plane.up, self.plane.height_m, "kept", 0) if kept else None
+                if not kept:
+                    self._tilted = self._disagree = 0
             return self.plane
         old = self.plane
         if old is None:
@@ -105,7 +124,7 @@ class GroundTracker:
             self.plane = GroundPlane(up, (1 - a) * old.height_m + a * fit.height_m, "fitted", fit.inliers)
         else:
             self._disagree += 1
-            if self._disagree >= self.switch_after:
+            if self._disagree >= self.switch_after or tilted:   # a level plane against a tilted one: at once
                 self._disagree = 0
                 self.plane = fit
                 self.switched = True

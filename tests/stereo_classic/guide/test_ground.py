@@ -241,3 +241,33 @@ def test_real_corridor_ground_does_not_depend_on_the_draw(shared_data):
     known = [f for f in fits if f is not None]
     assert len(known) >= 4 and all(agree(f, g) for f in known for g in known)
     assert all(1.2 < f.height_m < 1.6 for f in known)               # held at chest height, not a railing's plane
+
+
+def test_tracker_drops_a_plane_the_measured_up_contradicts():
+    """A plane adopted before the image showed which way is up (no vertical lines in view) is kept while the
+    measured up contradicts it for fewer than 3 frames in a row, then dropped: the ground is unknown, not a
+    30-degree slope. A level plane found meanwhile replaces it at once."""
+    tracker = GroundTracker(GuideParams())
+    sample, _ = _floor_sample(1.3, 12.0)
+    assert tracker.update(sample, 36.0).source == "fitted"
+    up = GroundPlane.from_mounting(1.0, 42.0).up                      # the lines say: 30 degrees from this plane
+    assert tracker.update(sample, 36.0, gravity=up).source == "kept"
+    assert tracker.update(sample, 36.0, gravity=up).source == "kept"
+    assert tracker.update(sample, 36.0, gravity=up) is None
+    assert tracker.update(sample, 36.0) is not None                   # without a measured up it is taken again
+
+    tracker = GroundTracker(GuideParams())
+    tracker.update(sample, 36.0)
+    level, _ = _floor_sample(1.1, 30.0, seed=3)                       # a floor 18 degrees from the plane held
+    plane = tracker.update(level, 36.0, gravity=GroundPlane.from_mounting(1.0, 30.0).up)   # and level
+    assert tracker.switched and plane.pitch_deg == pytest.approx(30.0, abs=1.0)
+    assert plane.height_m == pytest.approx(1.1, abs=0.03)
+
+
+def test_a_given_pitch_wins_over_the_measured_up():
+    sample, _ = _floor_sample(1.3, 12.0)
+    up = GroundPlane.from_mounting(1.0, 42.0).up
+    plane = GroundTracker(GuideParams(camera_pitch=12.0)).update(sample, 36.0, gravity=up)
+    assert plane is not None and plane.pitch_deg == pytest.approx(12.0)
+    assert plane.height_m == pytest.approx(1.3, abs=0.03)
+    assert fit_ground(sample, 36.0, gravity=up) is None                # the free fit honours it
