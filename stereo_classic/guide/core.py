@@ -24,6 +24,7 @@ import numpy as np
 from calib import RectifiedRig
 from stereo_classic.guide._stats import percentile
 from stereo_classic.guide.dropoff import DropOff, find_dropoff
+from stereo_classic.guide.gravity import Gravity, estimate_gravity
 from stereo_classic.guide.ground import (
     GroundPlane,
     PointSample,
@@ -47,6 +48,9 @@ from stereo_classic.guide.params import GuideInputError, GuideParams
 from stereo_classic.guide.tracking import Measurement, Track, Tracker
 
 __all__ = ["Guide", "GuideFrame", "TrackView"]
+
+#: While a fitted ground is tracked, the up is measured from the image's vertical lines this often (seconds).
+GRAVITY_PERIOD_S = 1.0
 
 #: Frame-check codes (``PipelineResult.warnings``) of a pair whose depths cannot be used.
 _NOT_MEASURED = frozenset({"swapped_pair", "pair_mismatch"})
@@ -101,6 +105,8 @@ class GuideFrame:
     sectors_deg : (S,) float, haptic sector centres ; haptics : (S,) float in [0, 1], 1 = blocked at the feet
     tracks : list of TrackView (objects and obstacles) seen in this frame ; events : list of Event ; notes : tuple of str
     obstacle_uv : (M, 2) float64, left-image pixels (column, row) of the obstacle points in the corridor
+    gravity : Gravity or None, the up direction measured from the image's vertical lines (None: not measured, or
+        not estimated: ``camera_pitch`` given or ``vertical_lines`` off)
     """
 
     frame: str
@@ -118,6 +124,7 @@ class GuideFrame:
     events: list[Event]
     notes: tuple[str, ...] = ()
     obstacle_uv: np.ndarray | None = None
+    gravity: Gravity | None = None
 
     def haptics_record(self) -> dict[str, Any]:
         """The frame's line of ``events.jsonl`` with the haptic vector, the free distances and the ground."""
@@ -126,7 +133,8 @@ class GuideFrame:
                 "intensity": [round(float(v), 3) for v in self.haptics],
                 "hours": [int(h) for h in self.hours], "free_m": [round(float(v), 2) if math.isfinite(v) else None for v in self.free_m],
                 "clear_clock": self.clear_clock,
-                "ground": self.ground.to_dict() if self.ground is not None else None, "notes": list(self.notes)}
+                "ground": self.ground.to_dict() if self.ground is not None else None,
+                "gravity": self.gravity.to_dict() if self.gravity is not None else None, "notes": list(self.notes)}
 
 
 class Guide:
@@ -158,6 +166,7 @@ class Guide:
         self.frames = 0
         self._rig_key: tuple | None = None
         self._drop_m = math.nan            # how far down the last drop-off seen went (metres)
+        self._gravity_time: float | None = None   # when the up was last measured from the vertical lines
 
     def reset(self) -> None:
         """Forget the ground, the tracks and what was said (a new scene)."""
@@ -166,6 +175,7 @@ class Guide:
         self.policy.reset()
         self.last_time = None
         self.frames = 0
+        self._gravity_time = None
 
     def update(self, result: Any, rig: RectifiedRig, time_s: float, *, frame: str | None = None) -> GuideFrame:
         """Process one frame.
@@ -230,12 +240,17 @@ class Guide:
         stride = points.stride
         codes = {getattr(w, "code", "") for w in getattr(result, "warnings", ()) or ()}
         edge_ahead = self._edge_ahead(time_s)            # a tracked drop-off edge ahead, predicted to this frame
+        gravity = None
         if codes & _NOT_MEASURED:  # a swapped or mismatched pair: its depths are not the scene's
             notes.append("the left/right pair is swapped or not a pair: nothing measured in this frame")
             points = PointSample(np.zeros((0, 2)), np.zeros((0, 3)), stride, float(rig.focal_px))
             plane = None
         else:
-            plane = self.ground.update(points, fb, before_m=edge_ahead)
+            if self._measure_gravity(left, time_s):
+                gravity = estimate_gravity(left, rig, measured=disparity, rng=self.frames)
+                self._gravity_time = time_s
+            plane = self.ground.update(points, fb, before_m=edge_ahead,
+                                       gravity=None if gravity is None else gravity.up)
             if self.ground.switched:  # a drop-off was measured against the old plane: it must be seen again
                 self.tracker.tracks = [t for t in self.tracker.tracks if t.kind != "drop_off"]
                 edge_ahead = None
@@ -249,6 +264,9 @@ class Guide:
         blocked = np.zeros((0, 2))
         if plane is None:
             notes.append("ground unknown: no obstacles, drop-offs or clear path in this frame")
+            if gravity is not None and gravity.pitch_deg < -5.0:   # as a walker's camera does not look at its ground
+                notes.append(f"the camera looks up {-gravity.pitch_deg:.0f} degrees (its vertical lines say): "
+                             f"little or no ground in view")
         else:
             gp = plane.to_ground(points.xyz)
             area = points.footprint()
@@ -317,7 +335,20 @@ class Guide:
         return GuideFrame(frame=name, time_s=time_s, ground=plane, obstacles=obstacles, grid=grid, dropoff=dropoff,
                           hours=hours, free_m=free, clear_clock=clear, sectors_deg=sectors, haptics=haptics,
                           tracks=views, events=events, notes=tuple(notes),
-                          obstacle_uv=points.uv[corridor_mask] if corridor_mask is not None else np.zeros((0, 2)))
+                          obstacle_uv=points.uv[corridor_mask] if corridor_mask is not None else np.zeros((0, 2)),
+                          gravity=gravity)
+
+    def _measure_gravity(self, left: Any, time_s: float) -> bool:
+        """Whether to measure the up from the vertical lines in this frame (about 2.5 ms at 640x480): when the
+        ground has to be searched for (none yet, or last frame's fit failed and the plane was kept) and, while a
+        ground is tracked, every ``GRAVITY_PERIOD_S`` (a plane taken before the image showed which way is up is
+        dropped when the up contradicts it)."""
+        p = self.params
+        if not (p.vertical_lines and p.camera_pitch is None and isinstance(left, np.ndarray)):
+            return False
+        plane = self.ground.plane
+        return (plane is None or plane.source != "fitted" or self._gravity_time is None
+                or time_s - self._gravity_time >= GRAVITY_PERIOD_S)
 
     def _edge_ahead(self, time_s: float) -> float | None:
         """How far ahead (metres) the nearest tracked drop-off's edge is predicted at ``time_s``, or None."""

@@ -84,6 +84,10 @@ class GuideParams:
         A pause between frames longer than this (a camera that stopped) ends every track.
     sectors : int
         Number of haptic sectors across the field of view.
+    vertical_lines : bool
+        Measure which way is up from the image's vertical lines (door frames, poles, balusters) when
+        ``camera_pitch`` is not given, and take only a level plane for the ground
+        (:mod:`~stereo_classic.guide.gravity`); False: the prior of a carried camera alone.
     """
 
     camera_height: float | None = field(default=None, metadata={
@@ -115,6 +119,9 @@ class GuideParams:
     track_window: float = 1.0
     max_gap: float = 1.0
     sectors: int = 5
+    vertical_lines: bool = field(default=True, metadata={
+        "help": "do not measure which way is up from the image's vertical lines (door frames, poles) when "
+                "--camera-pitch is not given: the ground may then be any plane a carried camera could stand on"})
 
     def __post_init__(self) -> None:
         def set_(name: str, value: Any) -> None:
@@ -154,6 +161,8 @@ class GuideParams:
             raise GuideInputError(f"`directions` must be one of {DIRECTIONS}, got {self.directions!r}")
         if isinstance(self.sectors, bool) or not isinstance(self.sectors, int) or not 1 <= self.sectors <= 24:
             raise GuideInputError(f"`sectors` must be an int from 1 to 24, got {self.sectors!r}")
+        if not isinstance(self.vertical_lines, bool):
+            raise GuideInputError(f"`vertical_lines` must be True or False, got {self.vertical_lines!r}")
 
     def replace(self, **overrides: Any) -> GuideParams:
         """A copy with some fields changed (checked again); an unknown name raises GuideInputError."""

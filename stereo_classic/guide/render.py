@@ -2,8 +2,9 @@
 (``birdseye``).
 
 Overlay: the walking corridor on the ground (green), obstacle pixels in the corridor (red), the drop-off edge
-(magenta), tracked objects and obstacles with their id, distance and approach speed, the haptic sectors along
-the bottom (white = free, red = blocked) and the frame's messages at the top. Bird's-eye: 10 cm cells of the
+(magenta), tracked objects and obstacles with their id, distance and approach speed, the horizon of the up
+direction measured from the vertical lines (dashed cyan), the haptic sectors along the bottom (white = free,
+red = blocked) and the frame's messages at the top. Bird's-eye: 10 cm cells of the
 occupancy grid (grey; red inside the corridor), the corridor, one ray per clock hour as long as its free
 distance (green: the clear path), the drop-off edge, the tracks, a line every metre; the camera at the bottom.
 """
@@ -55,6 +56,34 @@ def _ground_line(frame: GuideFrame, rig: RectifiedRig, lateral: np.ndarray, forw
     return np.round(_project(cam[ok], rig)).astype(np.int32)
 
 
+def _horizon(img: np.ndarray, frame: GuideFrame, rig: RectifiedRig) -> None:
+    """The horizon of ``frame.gravity`` (the image points whose rays are level), dashed, with the camera's pitch
+    and roll; where it lies outside the view, the label at the border it lies beyond."""
+    if frame.gravity is None:
+        return
+    h, w = img.shape[:2]
+    up, f = frame.gravity.up, rig.focal_px
+    label = f"horizon (vertical lines): pitch {frame.gravity.pitch_deg:.0f}, roll {frame.gravity.roll_deg:.0f} deg"
+    if abs(up[1]) < 1e-3:
+        return
+    us = np.array([0.0, w - 1.0])
+    vs = rig.cy - (up[2] * f + up[0] * (us - rig.cx_left)) / up[1]     # up . (u - cx, v - cy, f) = 0
+    if max(vs) < 0 or min(vs) > h - 1:
+        below = min(vs) > h - 1
+        _text(img, label + (" (below the view)" if below else " (above the view)"), (6, h - 16 if below else 60),
+              _CYAN, 0.4)
+        return
+    n = 24
+    for i in range(0, n, 2):                                            # dashed: every other piece
+        a, b = i / n, (i + 1) / n
+        p0 = (round(us[0] + a * (us[1] - us[0])), round(vs[0] + a * (vs[1] - vs[0])))
+        p1 = (round(us[0] + b * (us[1] - us[0])), round(vs[0] + b * (vs[1] - vs[0])))
+        cv2.line(img, p0, p1, _CYAN, 1, cv2.LINE_AA)
+    y = int(np.clip(vs[1] - 6, 24, h - 16))
+    (tw, _), _ = cv2.getTextSize(label, cv2.FONT_HERSHEY_SIMPLEX, 0.4, 1)
+    _text(img, label, (max(2, w - tw - 6), y), _CYAN, 0.4)
+
+
 def draw_overlay(image: np.ndarray, frame: GuideFrame, rig: RectifiedRig, params: GuideParams,
                  obstacle_uv: np.ndarray | None = None) -> np.ndarray:
     """The left image ((H, W) or (H, W, 3) uint8) with the frame drawn on it; (H, W, 3) uint8 BGR."""
@@ -91,6 +120,7 @@ def draw_overlay(image: np.ndarray, frame: GuideFrame, rig: RectifiedRig, params
             if cam[0, 2] > 0.2:
                 u, v = np.round(_project(cam, rig)[0]).astype(int)
                 _text(img, label, (int(np.clip(u - 40, 0, w - 80)), int(np.clip(v, 12, h - 30))), _CYAN)
+    _horizon(img, frame, rig)
     n = len(frame.haptics)
     for i, value in enumerate(frame.haptics):
         x0, x1 = int(i * w / n), int((i + 1) * w / n) - 2

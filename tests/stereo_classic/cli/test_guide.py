@@ -152,3 +152,22 @@ def test_config_file_options(walk, tmp_path):
     code = main(["guide", "--left", str(walk / "l_*.png"), "--right", str(walk / "r_*.png"), "--calib",
                  str(walk / "rig.yaml"), "-o", str(out), "--config", str(config)])
     assert code == 0 and len([r for r in _lines(out) if r["kind"] == "haptics"]) == 2
+
+
+def test_vertical_lines_in_the_events(tmp_path):
+    """Stairs up seen from their bottom (rendered): the haptics line says which way is up (the camera looks up
+    25 degrees) and that there is no ground; ``--no-vertical-lines`` turns the measurement off."""
+    left, right, _, rig = ws.render(ws.stairs_up(0.8), supersample=1, cam_height=1.5, pitch_deg=-25.0)
+    for side, img in (("l", left), ("r", right)):
+        for i in range(2):
+            cv2.imwrite(str(tmp_path / f"{side}_{i:02d}.png"), img)
+    rig.to_opencv_yaml(tmp_path / "rig.yaml")
+    args = ["guide", "--left", str(tmp_path / "l_*.png"), "--right", str(tmp_path / "r_*.png"), "--calib",
+            str(tmp_path / "rig.yaml"), *BASE]
+    assert main([*args, "-o", str(tmp_path / "on")]) == 0
+    haptics = [r for r in _lines(tmp_path / "on") if r["kind"] == "haptics"]
+    assert [r["ground"] for r in haptics] == [None, None]
+    assert all(r["gravity"]["pitch_deg"] == pytest.approx(-25.0, abs=1.5) for r in haptics)
+    assert any("looks up" in n for n in haptics[0]["notes"])
+    assert main([*args, "-o", str(tmp_path / "off"), "--no-vertical-lines"]) == 0
+    assert all(r["gravity"] is None for r in _lines(tmp_path / "off") if r["kind"] == "haptics")

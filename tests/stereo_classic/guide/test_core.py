@@ -250,3 +250,107 @@ def test_real_selfie_person_ahead(shared_data, yolox_nano):
     assert len(person) == 1 and person[0].clock in (11, 12, 1) and 0.3 < person[0].distance_m < 1.2
     assert person[0].priority == "danger"
     assert [e.interrupt for e in frame.events].count(True) == 1 and frame.events[0].interrupt
+
+
+def _still_run(left, right, rig, n, **params):
+    guide = Guide(**params)
+    with Localizer(rig, None, PARAMS, **NO_CHECKS) as loc:
+        result = loc(left, right)
+    return [guide.update(result, rig, i / 10.0, frame=str(i)) for i in range(n)]
+
+
+def test_stairs_up_seen_from_their_bottom_are_not_the_ground():
+    """A camera 1.5 m up, 0.8 m before a flight of stairs up, looking up it by 25 degrees (rendered; the OAK-D
+    stairs frame's view): the steps make a plane a carried camera could stand on, and without the measured up the
+    guide takes it for the ground (the premise); the balusters' lines say the camera looks up, every frame's ground
+    is unknown, said once, and why is in the notes and the events' haptics line."""
+    left, right, _, rig = ws.render(ws.stairs_up(0.8), supersample=1, cam_height=1.5, pitch_deg=-25.0)
+    plain = _still_run(left, right, rig, 6, vertical_lines=False)
+    assert all(f.ground is not None and f.gravity is None for f in plain)
+    frames = _still_run(left, right, rig, 6)
+    assert all(f.ground is None and f.gravity is not None for f in frames)
+    assert frames[0].gravity.pitch_deg == pytest.approx(-25.0, abs=1.5)
+    said = [e for f in frames for e in f.events]
+    assert [(e.kind, e.text) for e in said] == [("status", "ground not seen, drop-offs not checked")]
+    assert any("looks up 25 degrees" in n for n in frames[0].notes)
+    record = frames[0].haptics_record()
+    assert record["ground"] is None and record["gravity"]["pitch_deg"] == pytest.approx(-25.0, abs=1.5)
+    picture = draw_overlay(left, frames[0], rig, GuideParams())
+    assert picture.shape == left.shape
+
+
+def test_the_up_is_measured_when_the_ground_is_searched_for():
+    """On a floor the guide tracks, the vertical lines are read in the first frame and then once a second (about
+    2.5 ms a 640x480 frame); not at all with a given pitch or with ``vertical_lines`` off. The lines and the
+    floor agree, so the ground is the same either way."""
+    left, right, _, rig = ws.render(ws.floor() + ws.poles(), supersample=1, cam_height=1.3, pitch_deg=10.0)
+    frames = _still_run(left, right, rig, 12)
+    assert [i for i, f in enumerate(frames) if f.gravity is not None] == [0, 10]
+    assert frames[0].gravity.pitch_deg == pytest.approx(10.0, abs=1.0)
+    assert all(f.ground.height_m == pytest.approx(1.3, abs=0.05) for f in frames)
+    assert frames[1].haptics_record()["gravity"] is None
+    picture = draw_overlay(left, frames[0], rig, GuideParams())
+    v = round(rig.cy - math.tan(math.radians(10.0)) * rig.focal_px)        # the horizon's row at 10 degrees down
+    cyan = (np.abs(picture.astype(int) - (230, 200, 40)).sum(axis=2) < 60).sum(axis=1)   # the dashed line's colour
+    assert cyan[v - 1:v + 2].sum() > 100 and cyan[v + 10:].sum() < cyan[v - 1:v + 2].sum()
+    for params in ({"camera_pitch": 10.0}, {"vertical_lines": False}):
+        assert all(f.gravity is None for f in _still_run(left, right, rig, 3, **params))
+    unmeasured = _still_run(left, right, rig, 1, vertical_lines=False)[0]
+    assert unmeasured.ground.height_m == pytest.approx(frames[0].ground.height_m, abs=0.02)
+
+
+def test_real_stairs_frame_has_no_ground(shared_data):
+    """The OAK-D stairs frame, looked at as a still sequence of 8 frames: its steps, seen from the bottom of the
+    flight, make a plane that five searches agree on from the third frame without the measured up (measured: 6
+    of 8 frames, 0.88-0.95 m); the balusters and door frame say the camera looks up 28 degrees, and no frame has
+    a ground: "ground not seen, drop-offs not checked" once, nothing said of the banister as if on a floor."""
+    import calib
+    from stereo_classic.io import read_image
+
+    folder = shared_data / "oakd"
+    rig = calib.load_rig(folder / "stereodemo_calibration.json")
+    with Localizer(rig, None, PARAMS) as loc:
+        result = loc(read_image(folder / "stairs_left.png"), read_image(folder / "stairs_right.png"))
+    plain = Guide(vertical_lines=False)
+    assert sum(plain.update(result, rig, i / 10.0).ground is not None for i in range(8)) >= 4
+    guide = Guide()
+    frames = [guide.update(result, rig, i / 10.0) for i in range(8)]
+    assert all(f.ground is None for f in frames)
+    assert [e.text for f in frames for e in f.events] == ["ground not seen, drop-offs not checked"]
+    assert frames[0].gravity.pitch_deg < -20.0
+
+
+@pytest.mark.parametrize("landing, pitch", [(1.0, 30.0), (1.0, 40.0)])
+def test_stairs_down_from_the_top_are_not_a_floor(landing, pitch):
+    """Standing on a landing at the top of a flight down, 1.5 m up, looking down the flight (rendered, a banister
+    on both sides): the view starts past the landing's edge, and the steps' nosings make one plane that passes
+    for a floor 0.8 m down without the measured up (the premise: nothing is said of the stairs); with it the
+    ground is unknown, "ground not seen, drop-offs not checked" is said, never a floor through the steps."""
+    left, right, _, rig = ws.render(ws.stairs_down(landing, balusters=True), supersample=1, cam_height=1.5,
+                                    pitch_deg=pitch)
+    plain = _still_run(left, right, rig, 4, vertical_lines=False)
+    assert all(f.ground is not None and f.ground.height_m < 1.0 and f.dropoff is None for f in plain)
+    frames = _still_run(left, right, rig, 4)
+    assert frames[0].gravity.pitch_deg == pytest.approx(pitch, abs=1.0)
+    assert all(f.ground is None for f in frames)
+    assert [e.text for f in frames for e in f.events] == ["ground not seen, drop-offs not checked"]
+
+
+def test_stairs_down_with_the_landing_in_view_are_a_drop_off():
+    """The landing's edge 2 m ahead, in view: it is the ground, and the flight a drop-off at its edge, with or
+    without the measured up (which agrees with the landing). With the edge 1.5 m ahead only a strip of landing is
+    in view (from 1.2 m): without the up the nosings' plane 0.67 m down was the ground and a drop-off 4.5 m ahead
+    was said; with it the landing is the ground and the drop-off is at its edge."""
+    left, right, _, rig = ws.render(ws.stairs_down(2.0, balusters=True), supersample=1, cam_height=1.5,
+                                    pitch_deg=25.0)
+    for params in ({}, {"vertical_lines": False}):
+        frame = _still_run(left, right, rig, 2, **params)[-1]
+        assert frame.ground.height_m == pytest.approx(1.5, abs=0.1)
+        assert frame.dropoff is not None and frame.dropoff.distance_m == pytest.approx(2.0, rel=0.15)
+    left, right, _, rig = ws.render(ws.stairs_down(1.5, balusters=True), supersample=1, cam_height=1.5,
+                                    pitch_deg=30.0)
+    plain = _still_run(left, right, rig, 2, vertical_lines=False)[-1]
+    assert plain.ground.height_m < 0.8 and plain.dropoff.distance_m > 4.0
+    frame = _still_run(left, right, rig, 2)[-1]
+    assert frame.ground.height_m == pytest.approx(1.5, abs=0.15)
+    assert frame.dropoff.distance_m == pytest.approx(1.5, rel=0.15)
