@@ -65,8 +65,6 @@ PITCH_RANGE = (-60.0, 80.0)
 MAX_ROLL_DEG = 30.0
 #: Pairs of segments tried (every pair when there are fewer).
 HYPOTHESES = 512
-#: Random plausible directions that measure the image's chance rate of a segment passing through one.
-_PROBES = 256
 #: The segments' planes through the camera must spread by this much (ratio of the two larger singular values of
 #: their normals) for the vanishing point to be pinned: parallel segments side by side give only a plane.
 MIN_SPREAD = 0.05
@@ -153,6 +151,18 @@ def _plausible(down: np.ndarray) -> np.ndarray:
     return (pitch >= PITCH_RANGE[0]) & (pitch <= PITCH_RANGE[1]) & (np.abs(roll) <= MAX_ROLL_DEG)
 
 
+def _probe_directions(step_deg: float = 4.0) -> np.ndarray:
+    """(K, 3) down vectors on a grid of the plausible pitches and rolls (``step_deg`` apart): the directions over
+    which an image's chance rate of a segment passing through one is measured."""
+    pitch = np.radians(np.arange(PITCH_RANGE[0], PITCH_RANGE[1] + 1e-9, step_deg))
+    roll = np.radians(np.arange(-MAX_ROLL_DEG, MAX_ROLL_DEG + 1e-9, step_deg))
+    t, r = (a.ravel() for a in np.meshgrid(pitch, roll))
+    return np.column_stack([-np.sin(r) * np.cos(t), np.cos(r) * np.cos(t), np.sin(t)])   # -up of that pitch, roll
+
+
+_PROBES = _probe_directions()
+
+
 def estimate_gravity(image: np.ndarray, rig: RectifiedRig, *, measured: np.ndarray | None = None,
                      rng: int = 0) -> Gravity | None:
     """The up direction of the scene seen in ``image``, from its vertical lines, or None.
@@ -203,7 +213,7 @@ def estimate_gravity(image: np.ndarray, rig: RectifiedRig, *, measured: np.ndarr
     normals /= np.linalg.norm(normals, axis=1)[:, None]
     length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
     n = len(seg)
-    pairs = np.array([(i, j) for i in range(n) for j in range(i + 1, n)]) if n * (n - 1) // 2 <= HYPOTHESES \
+    pairs = np.column_stack(np.triu_indices(n, 1)) if n * (n - 1) // 2 <= HYPOTHESES \
         else np.random.default_rng(rng).integers(0, n, size=(HYPOTHESES, 2))
     cand = np.cross(normals[pairs[:, 0]], normals[pairs[:, 1]])
     norm = np.linalg.norm(cand, axis=1)
@@ -230,12 +240,9 @@ def estimate_gravity(image: np.ndarray, rig: RectifiedRig, *, measured: np.ndarr
     s = np.linalg.svd(normals[inl], compute_uv=False)
     if s[1] < MIN_SPREAD * s[0]:
         return None
-    # a-contrario: the share of segments that a random plausible direction collects (this image's chance rate),
-    # and the expected number of hypotheses that collect k by chance (two segments make each hypothesis)
-    probe = _orient_down(np.random.default_rng(rng).normal(size=(4 * _PROBES, 3)))
-    probe = probe[_plausible(probe / np.linalg.norm(probe, axis=1)[:, None])][:_PROBES]
-    probe /= np.linalg.norm(probe, axis=1)[:, None]
-    chance = max(float((np.abs(normals @ probe.T) < tol).mean()), 1.0 / (n * len(probe)))   # (never 0: its resolution)
+    # a-contrario: the share of segments that a plausible direction collects, over a grid of them (this image's
+    # chance rate), and the expected number of hypotheses that collect k by chance (two segments make each one)
+    chance = max(float((np.abs(normals @ _PROBES.T) < tol).mean()), 1.0 / (n * len(_PROBES)))  # (never 0)
     if len(pairs) * bdtrc(k - 3, n - 2, chance) >= MAX_FALSE_ALARMS:     # P(more than k - 3 of n - 2) by chance
         return None
     return Gravity(-down, k, float(length[inl].sum()))

@@ -20,6 +20,9 @@ def test_measure_and_main(tmp_path, capsys):
         "cx0": rig.cx_left, "cx1": rig.cx_right, "cy": rig.cy}))
     result = guide_cost.measure(tmp_path, repeat=1, model=None)
     assert result["frames"] == 2 and 0 < result["guide_cpu_median_ms"] and 0 < result["guide_median_ms"]
+    still = guide_cost.measure(tmp_path, repeat=1, model=None, still=3, vertical_lines=False)
+    assert still["frames"] == 6
     assert guide_cost.main(["--data", str(tmp_path), "--repeat", "1"]) == 0
     assert "ms CPU per 320x240 frame" in capsys.readouterr().out
     assert guide_cost.main(["--data", str(tmp_path / "absent")]) == 2
+    assert guide_cost.main(["--data", str(tmp_path), "--still", "-1"]) == 2

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import cv2
 import pytest
@@ -29,3 +30,20 @@ def test_measure_and_main(tmp_path, capsys):
     assert "| walk | 1.2" in out and "seeds 0-1" in out and "(2/2) |" in out
     assert guide_ground.main(["--data", str(tmp_path / "absent")]) == 2
     assert guide_ground.main(["--data", str(tmp_path), "--frames", "0"]) == 2
+
+
+def test_vertical_lines_column(tmp_path, capsys):
+    left, right, _, rig = ws.render(ws.floor() + ws.poles(), supersample=1, **ws.CAMERA)
+    cv2.imwrite(str(tmp_path / "poles_left.png"), left)
+    cv2.imwrite(str(tmp_path / "poles_right.png"), right)
+    (tmp_path / "stereodemo_calibration.json").write_text(json.dumps({
+        "width": 320, "height": 240, "baseline_meters": rig.baseline_m, "fx": rig.focal_px, "fy": rig.focal_px,
+        "cx0": rig.cx_left, "cx1": rig.cx_right, "cy": rig.cy}))
+    (row,) = guide_ground.measure(tmp_path, frames=1, model=None)
+    assert row["gravity"].pitch_deg == pytest.approx(10.0, abs=1.0) and row["angle_deg"] < 2.0
+    (off,) = guide_ground.measure(tmp_path, frames=1, model=None, vertical_lines=False)
+    assert off["gravity"] is None and off["angle_deg"] is None
+    assert guide_ground.main(["--data", str(tmp_path), "--frames", "1"]) == 0
+    assert re.search(r"\| poles \| 1\.\d\d \|.*\| (9|10)\.\d / -?0\.\d \(\d+\) \| [01]\.\d \|", capsys.readouterr().out)
+    assert guide_ground.main(["--data", str(tmp_path), "--frames", "1", "--no-vertical-lines"]) == 0
+    assert re.search(r"\| poles \| 1\.\d\d \| [\d.]+ \| -?[\d.]+ \| - \| - \|", capsys.readouterr().out)
