@@ -37,15 +37,18 @@ from scipy.special import bdtrc
 from calib import RectifiedRig
 from stereo_classic.guide.params import GuideInputError
 
-__all__ = ["GRAVITY_TOLERANCE_DEG", "LEVEL_COS", "MAX_FALSE_ALARMS", "MIN_LENGTH_DIAGONALS", "MIN_LINES", "Gravity",
+__all__ = ["GRAVITY_TOLERANCE_DEG", "LEVEL_COS", "MAX_FALSE_ALARMS", "MIN_LENGTH_HEIGHTS", "MIN_LINES", "Gravity",
            "estimate_gravity"]
 
 #: Fewest segments through the vanishing point for an estimate: a handful of door-frame edges or balusters.
 MIN_LINES = 6
-#: Their total length must be at least this many image diagonals: structure that spans the view. Texture alone
-#: (the rendered test scenes' noise) makes short segments, of which a few meet anywhere by chance (0.4-0.6
-#: diagonals); the OAK-D scenes' vertical lines add up to 1.4-5 diagonals.
-MIN_LENGTH_DIAGONALS = 1.0
+#: Their total length must be at least this many image heights (vertical lines are bounded by the height, also
+#: in a wide driving frame): structure that spans the view. Texture alone (the rendered test scenes' noise) makes
+#: short segments, of which a few meet anywhere by chance (0.6-0.9 heights); the OAK-D scenes' vertical lines add
+#: up to 2.4-8 heights.
+MIN_LENGTH_HEIGHTS = 1.5
+#: Segments shorter than this share of the image height are not used.
+MIN_SEGMENT_HEIGHTS = 0.08
 #: The a-contrario test (Desolneux, Moisan and Morel; as LSD itself): the expected number of directions that
 #: so many segments would meet by chance, over the hypotheses tried, must be below this.
 MAX_FALSE_ALARMS = 1.0
@@ -179,7 +182,7 @@ def estimate_gravity(image: np.ndarray, rig: RectifiedRig, *, measured: np.ndarr
     -------
     Gravity or None
         None when fewer than ``MIN_LINES`` segments meet in a direction a carried camera can see as vertical,
-        when they add up to less than ``MIN_LENGTH_DIAGONALS`` image diagonals, when they do not pin it (all in
+        when they add up to less than ``MIN_LENGTH_HEIGHTS`` image heights, when they do not pin it (all in
         nearly one plane through the camera), or when so many would meet somewhere by chance (the a-contrario
         test, ``MAX_FALSE_ALARMS``): no measurement rather than a guess.
 
@@ -200,8 +203,8 @@ def estimate_gravity(image: np.ndarray, rig: RectifiedRig, *, measured: np.ndarr
         got = measured.shape if isinstance(measured, np.ndarray) else type(measured).__name__
         raise GuideInputError(f"`measured` must be an (H, W) disparity of the image's size {image.shape[:2]}, "
                               f"got {got}")
-    diag = math.hypot(*size)
-    seg = _segments(_grey(image), measured, 0.05 * diag)
+    height = float(size[1])
+    seg = _segments(_grey(image), measured, MIN_SEGMENT_HEIGHTS * height)
     if len(seg) < MIN_LINES:
         return None
     f = float(rig.focal_px)
@@ -235,7 +238,7 @@ def estimate_gravity(image: np.ndarray, rig: RectifiedRig, *, measured: np.ndarr
             break
         inl = new_inl
     k = int(inl.sum())
-    if k < MIN_LINES or length[inl].sum() < MIN_LENGTH_DIAGONALS * diag or not _plausible(down[None, :])[0]:
+    if k < MIN_LINES or length[inl].sum() < MIN_LENGTH_HEIGHTS * height or not _plausible(down[None, :])[0]:
         return None
     s = np.linalg.svd(normals[inl], compute_uv=False)
     if s[1] < MIN_SPREAD * s[0]:
