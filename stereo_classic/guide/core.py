@@ -264,7 +264,7 @@ class Guide:
         blocked = np.zeros((0, 2))
         if plane is None:
             notes.append("ground unknown: no obstacles, drop-offs or clear path in this frame")
-            if gravity is not None and gravity.pitch_deg < -5.0:   # as a walker's camera does not look at its ground
+            if gravity is not None and gravity.pitch_deg < -5.0:   # looking up: the ground is out of view, or nearly
                 notes.append(f"the camera looks up {-gravity.pitch_deg:.0f} degrees (its vertical lines say): "
                              f"little or no ground in view")
         else:

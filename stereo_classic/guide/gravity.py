@@ -38,7 +38,7 @@ from calib import RectifiedRig
 from stereo_classic.guide.params import GuideInputError
 
 __all__ = ["GRAVITY_TOLERANCE_DEG", "LEVEL_COS", "MAX_FALSE_ALARMS", "MIN_LENGTH_HEIGHTS", "MIN_LINES", "Gravity",
-           "estimate_gravity"]
+           "estimate_gravity", "pitch_of", "roll_of"]
 
 #: Fewest segments through the vanishing point for an estimate: a handful of door-frame edges or balusters.
 MIN_LINES = 6
@@ -73,6 +73,18 @@ HYPOTHESES = 512
 MIN_SPREAD = 0.05
 
 
+def pitch_of(up: np.ndarray) -> np.ndarray:
+    """Downward tilt of the optical axis (degrees; negative: looking up) of unit up vectors ``up`` ((3,) or
+    (K, 3), camera frame): the one formula of :class:`Gravity` and :class:`~stereo_classic.guide.GroundPlane`."""
+    return np.degrees(np.arcsin(np.clip(-np.asarray(up)[..., 2], -1.0, 1.0)))
+
+
+def roll_of(up: np.ndarray) -> np.ndarray:
+    """Sideways tilt (degrees; positive: the right side of the image is lower) of unit up vectors ``up``."""
+    up = np.asarray(up)
+    return np.degrees(np.arctan2(up[..., 0], -up[..., 1]))
+
+
 @dataclass(frozen=True, eq=False)
 class Gravity:
     """The up direction measured in one image.
@@ -98,12 +110,12 @@ class Gravity:
     @property
     def pitch_deg(self) -> float:
         """Downward tilt of the optical axis, degrees (negative: looking up)."""
-        return math.degrees(math.asin(float(np.clip(-self.up[2], -1.0, 1.0))))
+        return float(pitch_of(self.up))
 
     @property
     def roll_deg(self) -> float:
         """Sideways tilt, degrees (positive: the right side of the image is lower)."""
-        return math.degrees(math.atan2(float(self.up[0]), float(-self.up[1])))
+        return float(roll_of(self.up))
 
     def angle_deg(self, up: np.ndarray) -> float:
         """Degrees between this up and the unit vector ``up`` (a plane's normal)."""
@@ -149,8 +161,7 @@ def _orient_down(v: np.ndarray) -> np.ndarray:
 
 def _plausible(down: np.ndarray) -> np.ndarray:
     """(K,) bool: down vectors a carried camera can have (``PITCH_RANGE``, ``MAX_ROLL_DEG``)."""
-    pitch = np.degrees(np.arcsin(np.clip(down[:, 2], -1.0, 1.0)))
-    roll = np.degrees(np.arctan2(-down[:, 0], down[:, 1]))
+    pitch, roll = pitch_of(-down), roll_of(-down)
     return (pitch >= PITCH_RANGE[0]) & (pitch <= PITCH_RANGE[1]) & (np.abs(roll) <= MAX_ROLL_DEG)
 
 

@@ -32,7 +32,7 @@ from calib import RectifiedRig
 from calib.geometry import points_from_pixels
 from stereo_classic.guide._kernels import inlier_mask, inlier_scatter, score_hypotheses
 from stereo_classic.guide._stats import median, percentile
-from stereo_classic.guide.gravity import LEVEL_COS
+from stereo_classic.guide.gravity import LEVEL_COS, pitch_of, roll_of
 from stereo_classic.guide.params import ESTIMATED_HEIGHT_RANGE
 
 __all__ = ["AGREE_DEG", "AGREE_M", "RESTARTS", "GroundPlane", "PointSample", "agree", "consensus", "fit_ground",
@@ -164,12 +164,12 @@ class GroundPlane:
     @property
     def pitch_deg(self) -> float:
         """Downward tilt of the optical axis, degrees."""
-        return math.degrees(math.asin(float(np.clip(-self.up[2], -1.0, 1.0))))
+        return float(pitch_of(self.up))
 
     @property
     def roll_deg(self) -> float:
         """Sideways tilt, degrees (positive: the right side of the image is lower)."""
-        return math.degrees(math.atan2(float(self.up[0]), float(-self.up[1])))
+        return float(roll_of(self.up))
 
     def heights(self, xyz: np.ndarray) -> np.ndarray:
         """(N,) height of each point above the ground, metres."""
