@@ -10,7 +10,7 @@ of 35 degrees from level ground (docs/guide.md, "Which way is up").
 :func:`estimate_gravity` finds the line segments of the left image (OpenCV's fast line detector, on the image
 halved), keeps those along which the matcher measured (the rectification's border has no lines of the scene),
 and takes the direction through which the longest segments pass (RANSAC over pairs of segments, then least
-squares), among those a carried camera can see as vertical (pitch -60 to 80 degrees, roll within 30). Too few
+squares), among those a carried camera can see as vertical (pitch -45 to 60 degrees, roll within 15). Too few
 segments, too short in all, all in one plane through the camera, or no more than chance would line up (an
 a-contrario test against the image's own rate of segments passing a random direction): None, and the guide
 keeps its own prior.
@@ -63,9 +63,16 @@ LINE_TOLERANCE_DEG = 1.0
 GRAVITY_TOLERANCE_DEG = 15.0
 #: Its cosine: a unit normal ``n`` is level when ``n . up > LEVEL_COS``.
 LEVEL_COS = math.cos(math.radians(GRAVITY_TOLERANCE_DEG))
-#: Directions a carried camera can see as vertical: pitch (positive = looking down) and roll limits, degrees.
-PITCH_RANGE = (-60.0, 80.0)
-MAX_ROLL_DEG = 30.0
+#: Directions a carried camera can see as vertical: pitch (positive = looking down) and roll limits, degrees. A
+#: walker's camera looks at most 60 degrees down (from chest height, the floor 0.8 m ahead) and 45 up. The limits
+#: also keep out the lines that run ahead, level (floor and ceiling edges, handrails, table edges): their vanishing
+#: point reads as a pitch of 90 minus the true one, beyond these limits for a camera pitched from 30 up to 45
+#: down (measured on Middlebury's Cones, Teddy and Venus, level cameras: 72-78 degrees "down" before).
+PITCH_RANGE = (-45.0, 60.0)
+#: The roll limit of the ground's own prior (``fit_ground``'s ``max_roll_deg``): a chest, head or hand-held camera is
+#: held nearly upright. Parallel lines that are not vertical (a chair's back slats, a handrail) can meet in a
+#: direction rolled further (Middlebury's Adirondack, a level camera: 24 degrees before).
+MAX_ROLL_DEG = 15.0
 #: Pairs of segments tried (every pair when there are fewer).
 HYPOTHESES = 512
 #: The segments' planes through the camera must spread by this much (ratio of the two larger singular values of
