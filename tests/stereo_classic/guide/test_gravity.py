@@ -182,8 +182,9 @@ def _road_up(scene):
 
 def test_real_driving_frames_vertical_lines_agree_with_the_road(shared_data):
     """The ten DrivingStereo frames: the up of the vertical lines (poles, buildings, a car camera mounted level:
-    pitch -0.1 to 2.8 degrees) is within 2.5 degrees of the road's plane fitted to the LiDAR ground truth (measured
-    0.4-2.3; 9 of the 10 frames give an estimate; the road's camber and slope are a degree or so)."""
+    pitch -0.1 to 2.8 degrees) is within 3 degrees of the road's plane fitted to the LiDAR ground truth (measured
+    0.4-2.2; 9 of the 10 frames give an estimate; the road's camber and slope are a degree or so), a fifth of the
+    15 degrees the guide allows a level ground."""
     from stereo_classic.datasets.drivingstereo import iter_drivingstereo
 
     angles = []
@@ -192,4 +193,4 @@ def test_real_driving_frames_vertical_lines_agree_with_the_road(shared_data):
         g = estimate_gravity(scene.left, scene.rig, measured=measured)
         if g is not None:
             angles.append(g.angle_deg(_road_up(scene)))
-    assert len(angles) >= 8 and max(angles) < 2.5
+    assert len(angles) >= 8 and max(angles) < 3.0
