@@ -9,6 +9,7 @@ ground, finds obstacles without a class and drop-offs in the walking corridor, t
 
 from stereo_classic.guide.core import Guide, GuideFrame, TrackView
 from stereo_classic.guide.dropoff import DropOff, find_dropoff
+from stereo_classic.guide.gravity import Gravity, estimate_gravity
 from stereo_classic.guide.ground import (
     GroundPlane,
     PointSample,
@@ -41,6 +42,7 @@ __all__ = [
     "Candidate",
     "DropOff",
     "Event",
+    "Gravity",
     "GroundPlane",
     "GroundTracker",
     "Guide",
@@ -56,6 +58,7 @@ __all__ = [
     "TrackView",
     "Tracker",
     "clock_of",
+    "estimate_gravity",
     "find_dropoff",
     "find_obstacles",
     "fit_ground",
