@@ -38,7 +38,7 @@ from calib import RectifiedRig
 from stereo_classic.guide.params import GuideInputError
 
 __all__ = ["GRAVITY_TOLERANCE_DEG", "LEVEL_COS", "MAX_FALSE_ALARMS", "MIN_LENGTH_HEIGHTS", "MIN_LINES", "Gravity",
-           "estimate_gravity", "pitch_of", "roll_of"]
+           "estimate_gravity", "is_level", "pitch_of", "roll_of"]
 
 #: Fewest segments through the vanishing point for an estimate: a handful of door-frame edges or balusters.
 MIN_LINES = 6
@@ -78,6 +78,12 @@ HYPOTHESES = 512
 #: The segments' planes through the camera must spread by this much (ratio of the two larger singular values of
 #: their normals) for the vanishing point to be pinned: parallel segments side by side give only a plane.
 MIN_SPREAD = 0.05
+
+
+def is_level(normal: np.ndarray, up: np.ndarray) -> bool:
+    """Whether a plane of unit ``normal`` is within :data:`GRAVITY_TOLERANCE_DEG` of level, ``up`` being the measured
+    up direction (any length)."""
+    return float(np.asarray(normal) @ np.asarray(up)) >= LEVEL_COS * float(np.linalg.norm(up))
 
 
 def pitch_of(up: np.ndarray) -> np.ndarray:

@@ -32,7 +32,7 @@ from calib import RectifiedRig
 from calib.geometry import points_from_pixels
 from stereo_classic.guide._kernels import inlier_mask, inlier_scatter, score_hypotheses
 from stereo_classic.guide._stats import median, percentile
-from stereo_classic.guide.gravity import LEVEL_COS, pitch_of, roll_of
+from stereo_classic.guide.gravity import is_level, pitch_of, roll_of
 from stereo_classic.guide.params import ESTIMATED_HEIGHT_RANGE
 
 __all__ = ["AGREE_DEG", "AGREE_M", "RESTARTS", "GroundPlane", "PointSample", "agree", "consensus", "fit_ground",
@@ -367,7 +367,7 @@ class _Search:
         elif not self.fixed_up and (up @ self.ref < math.cos(self.limit) or abs(plane.roll_deg) > self.max_roll_deg
                                     or plane.pitch_deg < -5.0):
             reason = "tilt"
-        elif self.gravity is not None and up @ self.gravity < LEVEL_COS:
+        elif self.gravity is not None and not is_level(up, self.gravity):
             reason = "not level"
         elif n_below > 0.5 * n_in:
             reason = "points below it"

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stereo_classic.guide.gravity import LEVEL_COS
+from stereo_classic.guide.gravity import is_level
 from stereo_classic.guide.ground import (
     RESTARTS,
     GroundPlane,
@@ -102,8 +102,7 @@ class GroundTracker:
         fit = self._given(fit)
         # the measured up says the current plane is not level ground (stairs or a ramp taken for the floor
         # before the image showed which way is up)
-        tilted = "gravity" in kw and prior is not None and \
-            float(prior.up @ gravity) < LEVEL_COS * float(np.linalg.norm(gravity))     # (fit_ground checked it)
+        tilted = "gravity" in kw and prior is not None and not is_level(prior.up, gravity)   # (fit_ground checked it)
         self._tilted = self._tilted + 1 if tilted else 0
         if fit is None:
             if self.plane is not None:
