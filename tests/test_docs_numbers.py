@@ -82,3 +82,22 @@ def test_fusion_md_kitti_numbers_are_what_the_code_gives(shared_data, yolox_nano
     text = _flat((REPO / "docs" / "fusion.md").read_text(encoding="utf-8"))
     missing = [e for e in expected if e not in text]
     assert not missing, "docs/fusion.md's KITTI numbers are not the code's; now:\n" + "\n".join(missing)
+
+
+def test_fusion_md_pipeline_speed_is_the_report(report):
+    """The speed paragraph's figures of the run in the repository: frames/s, the median and its stages, and the
+    concurrent detector against the serial one at both sizes."""
+    runs = {(tuple(p["size"]), bool(p.get("concurrent"))): p for p in report["pipeline"] if p.get("available")}
+    kitti = runs[((1242, 375), False)]
+    st = kitti["stages_median_ms"]
+    commit = report["machine"]["git_commit"][:7]
+    expected = [
+        f"pipeline at **{kitti['fps']:.1f} frames/s** in the run at {commit}",
+        f"({kitti['median_ms']:.1f} ms median: matcher {st['disparity']:.1f} ms, detector {st['detect']:.1f} ms, "
+        f"fusion {st['localize']:.1f} ms, frame checks {st['checks']:.1f} ms:",
+        f"({runs[((1242, 375), True)]['fps']:.1f} against {kitti['fps']:.1f} frames/s in the same run at {commit},",
+        f"({runs[((640, 480), True)]['fps']:.1f} against {runs[((640, 480), False)]['fps']:.1f} at {commit},",
+    ]
+    text = _flat((REPO / "docs" / "fusion.md").read_text(encoding="utf-8"))
+    missing = [e for e in expected if e not in text]
+    assert not missing, "docs/fusion.md's speed figures are not the report's; the report gives:\n" + "\n".join(missing)
