@@ -101,3 +101,13 @@ def test_fusion_md_pipeline_speed_is_the_report(report):
     text = _flat((REPO / "docs" / "fusion.md").read_text(encoding="utf-8"))
     missing = [e for e in expected if e not in text]
     assert not missing, "docs/fusion.md's speed figures are not the report's; the report gives:\n" + "\n".join(missing)
+
+
+def test_benchmarks_md_kitti_table_is_the_report(report):
+    from benchmarks.kitti_objects import render_markdown
+
+    rows = [line for line in render_markdown(report["kitti_objects"]).splitlines() if re.match(r"\| \d+ \|", line)]
+    assert rows, "the report's KITTI objects table has no rows"
+    text = (REPO / "docs" / "benchmarks.md").read_text(encoding="utf-8")
+    missing = [row for row in rows if row not in text]
+    assert not missing, "docs/benchmarks.md's KITTI table is not the report's rows:\n" + "\n".join(missing)
