@@ -41,6 +41,9 @@ __all__ = [
     "SAD_PIXEL_MAX",
     "CENSUS",
     "CENSUS_GRAD",
+    "FEATURES",
+    "FEATURE_SCALE",
+    "FEATURE_QUANT",
     "GRAD_SHIFT",
     "SAD",
     "CostImages",
@@ -54,6 +57,7 @@ __all__ = [
     "sad_prefilter",
     "sobel_rows",
     "cost_volume_kernel",
+    "feature_row_cost",
     "NoAliasCompiler",
     "TEXTURE_REFERENCE",
     "TEXTURE_WINDOW",
@@ -71,6 +75,15 @@ SAD = 1
 #: census + x-gradient SAD: the census Hamming cost plus the window mean of |Sobel_x(L) - Sobel_x(R)|
 #: (no intensity term: gradients do not change with an exposure offset between the cameras).
 CENSUS_GRAD = 2
+#: Learned features (``stereo_classic.matching.learned``): per pixel a unit vector of C channels from a feature
+#: network, held as int8 (``round(FEATURE_QUANT * f)``); the cost is ``FEATURE_SCALE * (1 - <fL, fR>)`` (or the
+#: scaled L1 distance), so it lies in [0, 2 * FEATURE_SCALE]. ``feature_row_cost`` computes it a row at a time.
+FEATURES = 3
+#: Cost units per unit of ``1 - <fL, fR>``: 50 leaves room in the int16 sums for MC-CNN's own penalties (P2 24.3
+#: in these units where the texture is weak, ``params.py``) and steps of 0.02 in the dot product.
+FEATURE_SCALE = 50
+#: int8 features: ``round(FEATURE_QUANT * f)`` of a unit vector's components (|f| <= 1).
+FEATURE_QUANT = 127
 #: The gradient term of CENSUS_GRAD is (window sum * grad_mul) >> GRAD_SHIFT, i.e. the window mean.
 GRAD_SHIFT = 10
 #: Weak texture: a pixel whose TEXTURE_WINDOW x TEXTURE_WINDOW window mean of |Sobel_x| (left image, grey levels)
@@ -103,6 +116,10 @@ class CostImages(NamedTuple):
     penalty_scale : (H, W) uint8
         Per pixel, the factor of P1 and P2 in sixteenths (16 = 1), ``weak_texture_scale``: the aggregation
         uses ``(P * scale + 8) >> 4`` at the pixel.
+    left_features : (H, W, C) int8
+        ``FEATURES``: the left view's quantised unit feature vectors, channels innermost; (1, 1, 1) otherwise.
+    right_features : (H, C, W) int8
+        ``FEATURES``: the right view's, one row per channel (the row cost reverses them); (1, 1, 1) otherwise.
     """
 
     left: np.ndarray
@@ -113,6 +130,8 @@ class CostImages(NamedTuple):
     right_sobel: np.ndarray
     right_intensity: np.ndarray
     penalty_scale: np.ndarray
+    left_features: np.ndarray = np.zeros((1, 1, 1), np.int8)
+    right_features: np.ndarray = np.zeros((1, 1, 1), np.int8)
 
 
 class CostSettings(NamedTuple):
@@ -137,6 +156,11 @@ class CostSettings(NamedTuple):
         blocks); the indices past ``num_disparities`` get ``invalid_cost``, like a match outside the right image.
     grad_mul : int
         ``CENSUS_GRAD``: ``round(2**GRAD_SHIFT / block_size**2)``, the gradient window sum to its mean; 0 otherwise.
+    feature_l1 : int
+        ``FEATURES``: 1 = L1 distance of the feature vectors, 0 = dot product.
+    feature_base, feature_mul : float
+        ``FEATURES``: the cost is ``clip(feature_base + acc * feature_mul, 0, cmax)`` truncated, ``acc`` the
+        channel sum of the int8 products (dot) or absolute differences (L1), exact in float32.
     """
 
     kind: int
@@ -147,6 +171,9 @@ class CostSettings(NamedTuple):
     invalid_cost: int
     num_disparities: int
     grad_mul: int = 0
+    feature_l1: int = 0
+    feature_base: float = 0.0
+    feature_mul: float = 0.0
 
 
 def census_bits(census_window: tuple[int, int]) -> int:
@@ -260,6 +287,10 @@ class RowCostBuffers(NamedTuple):
     floor : (D,) int16
         0 for the disparities of the range, the invalid cost for the padding past it (``CostSettings``): the cost
         of index k is at least ``floor[k]`` (one vector max, instead of a remainder loop per pixel).
+    frev : (C * (W + D - 1),) float32
+        ``FEATURES``: the right row's features, reversed, one run per channel ((1,) otherwise).
+    facc : (D,) float32
+        ``FEATURES``: the channel sums of the current pixel ((1,) otherwise).
     """
 
     colsum: np.ndarray
@@ -268,6 +299,8 @@ class RowCostBuffers(NamedTuple):
     srev: np.ndarray
     irev: np.ndarray
     floor: np.ndarray
+    frev: np.ndarray = np.zeros(1, np.float32)
+    facc: np.ndarray = np.zeros(1, np.float32)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -393,6 +426,10 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     match falls outside the right image get ``invalid_cost``, and so do the padding indices ``k >=
     cost.num_disparities`` (``crow`` holds ``len(crow) // W`` per pixel).
     """
+    if cost.kind == FEATURES:  # learned features: a cost of their own (``feature_row_cost``)
+        feature_row_cost(images.left_features, images.right_features, cost, y, bufs.frev, bufs.facc, bufs.floor,
+                         crow)
+        return
     lcode = images.left_code
     rcode = images.right_code
     lsob = images.left_sobel
@@ -463,6 +500,60 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
                                          floor[k])
     nd = cost.num_disparities
     for x in range(W):  # disparities whose match is outside the right image: k outside [k_lo, k_hi]
+        k_lo, k_hi = valid_range(x, W, dmin, nd)
+        if k_lo > 0 or k_hi < nd - 1:
+            cb = x * D
+            for k in range(nd):
+                if k < k_lo or k > k_hi:
+                    crow[_U(cb + k)] = cinv
+
+
+@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow):  # pragma: no cover - numba
+    """``row_cost`` of ``FEATURES``: ``crow[x * D + k]`` from the int8 feature vectors of row ``y``.
+
+    ``lfeat`` (H, W, C) and ``rfeat`` (H, C, W) int8 (``CostImages``). The right row is copied reversed into
+    ``frev`` as float32, one run of ``W + D - 1`` per channel, so that the D candidates of a left pixel are a
+    contiguous slice per channel; per pixel the channel sums (products for the dot product, absolute differences
+    for L1) are accumulated over the D candidates at once (vectors over k). Every product and sum is an integer
+    below 2**24, so float32 holds them exactly and the order of the additions does not matter. The cost is
+    ``clip(feature_base + sum * feature_mul, 0, cmax)`` truncated to int16; matches outside the right image and
+    the padding get ``invalid_cost`` as in ``row_cost``.
+    """
+    W = lfeat.shape[1]
+    C = lfeat.shape[2]
+    D = crow.shape[0] // W
+    dmin = cost.min_disparity
+    nrr = W + D - 1
+    for ch in range(C):  # frev[ch * nrr + j] = right feature ch at column clamp(W - 1 - dmin - j)
+        base = ch * nrr
+        for j in range(nrr):
+            frev[_U(base + j)] = np.float32(rfeat[y, ch, _clamp(W - 1 - dmin - j, W)])
+    fbase = np.float32(cost.feature_base)
+    fmul = np.float32(cost.feature_mul)
+    top = np.float32(cost.cmax)
+    zero = np.float32(0.0)
+    l1 = cost.feature_l1 != 0
+    for x in range(W):
+        j0 = W - 1 - x
+        for k in range(D):
+            facc[k] = zero
+        for ch in range(C):
+            a = np.float32(lfeat[y, x, ch])
+            b = ch * nrr + j0
+            if l1:
+                for k in range(D):
+                    facc[k] += abs(a - frev[_U(b + k)])
+            else:
+                for k in range(D):
+                    facc[k] += a * frev[_U(b + k)]
+        cb = x * D
+        for k in range(D):
+            v = min(max(fbase + facc[k] * fmul, zero), top)
+            crow[_U(cb + k)] = max16(np.int16(v), floor[k])
+    cinv = np.int16(cost.invalid_cost)
+    nd = cost.num_disparities
+    for x in range(W):  # disparities whose match is outside the right image, as in row_cost
         k_lo, k_hi = valid_range(x, W, dmin, nd)
         if k_lo > 0 or k_hi < nd - 1:
             cb = x * D
