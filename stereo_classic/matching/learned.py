@@ -197,7 +197,7 @@ class FeatureModel:
 
     def features(self, left: np.ndarray, right: np.ndarray, *, normalisation: str = "standardize",
                  threads: int = 1) -> tuple[np.ndarray, np.ndarray]:
-        """The int8 unit feature vectors of a uint8 grey pair: left (H, W, C), right (H, C, W).
+        """The int8 unit feature vectors of a uint8 grey pair: (H, C, W) each (one image row per channel).
 
         Each image is normalised on its own (``FEATURE_INPUTS``), padded by the margin, run through the network,
         and quantised on ``threads`` workers. FeatureModelError when a feature is not finite.
@@ -222,12 +222,11 @@ class FeatureModel:
             if feat.shape[1:] != (H, W):  # the margin holds for every size (checked on the probe)
                 raise FeatureModelError(f"`feature_model` {self.path}: output {tuple(feat.shape)} for a padded "
                                         f"{x.shape[0]} x {x.shape[1]} input; expected ({C}, {H}, {W})")
-            q = np.empty((H, W, C) if side == "left" else (H, C, W), np.int8)
+            q = np.empty((H, C, W), np.int8)
             bands = [(y0, min(H, y0 + 32)) for y0 in range(0, H, 32)]
             n = max(1, min(int(threads), len(bands)))
             scratch = [np.empty(W, np.float64) for _ in range(n)]
-            bad = run_tasks(bands, n, lambda t, b, f=feat, q=q: quantise_rows(f, 0, b[0], b[1], side == "left", q,
-                                                                            scratch[t]))
+            bad = run_tasks(bands, n, lambda t, b, f=feat, q=q: quantise_rows(f, 0, b[0], b[1], q, scratch[t]))
             if sum(bad):
                 raise FeatureModelError(f"`feature_model` {self.path} gives features that are not finite (NaN or inf)"
                                         f" at {sum(bad)} pixels of the {side} image")

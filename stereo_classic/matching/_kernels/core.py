@@ -317,7 +317,7 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
     """The cost's input images of both views: census quarters and / or the x-Sobel channel (with the image itself
     for SAD), made in stripes of rows of both images on ``threads`` workers, into arrays of ``workspace``; and the
     left image's per-pixel penalty factors (``weak_texture_scale``). ``cost="features"``: ``features`` is the pair
-    (left (H, W, C), right (H, C, W)) of int8 arrays the row cost reads (``learned.FeatureModel.features``)."""
+    (left, right) of (H, C, W) int8 arrays the row cost reads (``learned.FeatureModel.features``)."""
     H, W = left.shape
     w, h = census_window
     census, sobel = cost in ("census", "census+grad"), cost in ("sad", "census+grad")
@@ -363,16 +363,16 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
 
 
 def _check_features(features, H: int, W: int) -> tuple[np.ndarray, np.ndarray]:
-    """The (left (H, W, C), right (H, C, W)) int8 pair of ``cost="features"``; ValueError otherwise."""
+    """The (left, right) pair of (H, C, W) int8 features of ``cost="features"``; ValueError otherwise."""
     ok = isinstance(features, (tuple, list)) and len(features) == 2
     if ok:
         lf, rf = features
         ok = (isinstance(lf, np.ndarray) and isinstance(rf, np.ndarray) and lf.dtype == rf.dtype == np.int8
-              and lf.ndim == rf.ndim == 3 and lf.shape[:2] == (H, W) and rf.shape == (H, lf.shape[2], W)
-              and lf.shape[2] >= 1 and lf.flags.c_contiguous and rf.flags.c_contiguous and lf is not rf)
+              and lf.ndim == 3 and lf.shape == rf.shape and lf.shape[0] == H and lf.shape[2] == W
+              and lf.shape[1] >= 1 and lf.flags.c_contiguous and rf.flags.c_contiguous and lf is not rf)
     if not ok:
-        raise ValueError(f"`features` must be two C-contiguous int8 arrays, left (H, W, C) and right (H, C, W) with "
-                         f"(H, W) = {(H, W)}, got {_describe(features)}")
+        raise ValueError(f"`features` must be two distinct C-contiguous int8 arrays (H, C, W) with (H, W) = {(H, W)}, "
+                         f"got {_describe(features)}")
     return lf, rf
 
 
@@ -423,7 +423,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
                                  grad_mul=grad_mul(block_size) if cost == "census+grad" else 0)
     channels = 0
     if kind == FEATURES:
-        channels = _check_features(features, H, W)[0].shape[2]
+        channels = _check_features(features, H, W)[0].shape[1]
         cost_settings = cost_settings._replace(**dict(zip(("feature_l1", "feature_base", "feature_mul"),
                                                           feature_cost_terms(feature_similarity, channels))))
     timings = {}
@@ -571,8 +571,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
         LR check on; otherwise about 5 % more time).
     scratch_output : the left disparity may be an array of ``workspace``, overwritten by its next call (for a
         caller that makes a new map of it anyway).
-    features, feature_similarity : ``cost="features"``: the int8 unit feature vectors of both views, left (H, W, C)
-        and right (H, C, W) (``learned.FeatureModel.features``), and "dot" (``FEATURE_SCALE * (1 - <fL, fR>)``)
+    features, feature_similarity : ``cost="features"``: the int8 unit feature vectors of both views, (H, C, W) each
+        (``learned.FeatureModel.features``), and "dot" (``FEATURE_SCALE * (1 - <fL, fR>)``)
         or "l1" (``feature_cost_terms``); the penalties are in those cost units.
 
     Returns
@@ -644,7 +644,7 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
                             grad_mul=grad_mul(block_size) if cost == "census+grad" else 0)
     channels = 0
     if kind == FEATURES:
-        channels = _check_features(features, H, W)[0].shape[2]
+        channels = _check_features(features, H, W)[0].shape[1]
         settings = settings._replace(**dict(zip(("feature_l1", "feature_base", "feature_mul"),
                                                 feature_cost_terms(feature_similarity, channels))))
     images = _prepare_cost(left, right, cost, census_window, features=features)

@@ -1,9 +1,8 @@
 """Learned features to the int8 unit vectors the row cost reads (``cost.feature_row_cost``): one numba pass.
 
 ``quantise_rows`` takes a feature network's float32 output (C, H + 2m, W + 2m) (the margin m cut off here),
-normalises each pixel's C-vector to unit length and stores ``round(FEATURE_QUANT * f)`` as int8, channels innermost
-for the left view (H, W, C) and one row per channel for the right view (H, C, W); it counts the values that are not
-finite (the caller refuses the model then).
+normalises each pixel's C-vector to unit length and stores ``round(FEATURE_QUANT * f)`` as int8, one image row per
+channel (H, C, W); it counts the values that are not finite (the caller refuses the model then).
 """
 
 from __future__ import annotations
@@ -17,8 +16,8 @@ __all__ = ["quantise_rows"]
 
 
 @njit(cache=True, nogil=True)
-def quantise_rows(feat, margin, y0, y1, channels_last, out, sq):  # pragma: no cover - numba
-    """Rows [y0, y1) of ``out``: (H, W, C) when ``channels_last`` else (H, C, W) int8, from ``feat`` (C, H + 2m,
+def quantise_rows(feat, margin, y0, y1, out, sq):  # pragma: no cover - numba
+    """Rows [y0, y1) of ``out`` (H, C, W) int8, from ``feat`` (C, H + 2m,
     W + 2m) float32 (m = ``margin``). ``sq``: (W,) float64 scratch. Returns the number of non-finite values read
     (the rows are then undefined). A zero vector stays zero (its dot product with anything is 0)."""
     C = feat.shape[0]
@@ -44,9 +43,5 @@ def quantise_rows(feat, margin, y0, y1, channels_last, out, sq):  # pragma: no c
             for x in range(W):
                 v = np.float64(row[x + margin]) * sq[x]
                 r = np.floor(v + 0.5) if np.isfinite(v) else 0.0
-                r = min(max(r, -q), q)
-                if channels_last:
-                    out[y, x, c] = np.int8(r)
-                else:
-                    out[y, c, x] = np.int8(r)
+                out[y, c, x] = np.int8(min(max(r, -q), q))
     return bad
