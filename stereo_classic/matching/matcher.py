@@ -463,7 +463,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         gray_left, gray_right, cost="features" if params.learned else params.cost,
         features=features, feature_similarity=params.feature_similarity, min_disparity=params.min_disparity,
         num_disparities=params.num_disparities, block_size=params.block_size, census_window=params.census_window,
-        p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.adaptive_p2,
+        p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.effective_adaptive_p2,
         weak_texture_gain=params.weak_texture_gain,
         uniqueness=params.uniqueness / 100.0, lr_check=params.lr_check, subpixel=params.subpixel,
         threads=params.effective_threads,

@@ -79,11 +79,15 @@ _GRAD_P2 = 32
 _SAD_P1_PER_PIXEL = 8
 _SAD_P2_PER_PIXEL = 32
 # Learned costs, in the kernels' units (FEATURE_SCALE per unit of 1 - <fL, fR>): MC-CNN's SGM (Zbontar & LeCun 2016)
-# uses P1 2.3 and P2 24.3 on the cost -<fL, fR>, divided by 4 where the image gradient exceeds 0.08 on one image
-# (by 8 on both): textured pixels get 2.3 / 4 and 24.3 / 4, and the weak-texture gain (default 4) brings those back
-# to 2.3 and 24.3 where the texture is weak: 0.575 * 50 and 6.075 * 50, rounded.
-_LEARNED_P1 = round(2.3 / 4 * FEATURE_SCALE)
-_LEARNED_P2 = round(24.3 / 4 * FEATURE_SCALE)
+# uses P1 2.3 and P2 24.3 on the cost -<fL, fR>, divided by 4 where the image gradient along the path exceeds 0.08
+# (20 grey levels) on one image and by 8 where it does on both. Here: half of them (between the full penalties of
+# smooth pixels and the quarter at intensity edges) as the base, P2 divided by 1 + |I(p) - I(p - r)| along each path
+# (the kernels' edge-aware rule, ``adaptive_p2``, always on for learned costs) and, as for every cost, up to
+# ``weak_texture_gain`` times larger on weak texture: 1.15 * 25 and 12.15 * 25, rounded. Measured on the shared
+# scenes (dense bad-2 Middlebury-style / driving) against MC-CNN's flat 2.3 / 24.3 without the edge rule 10.7 / 11.5,
+# with it 6.9 / 10.4; this 7.1 / 9.4 (docs/matching.md, "Learned costs").
+_LEARNED_P1 = round(2.3 / 2 * FEATURE_SCALE)
+_LEARNED_P2 = round(24.3 / 2 * FEATURE_SCALE)
 
 
 def _is_int(value: Any) -> bool:
@@ -187,7 +191,8 @@ class SGMParams:
         None uses defaults scaled to the cost: census 20 / 80 (measured best on real scenes);
         census+grad 28 / 112 (census's plus OpenCV's 8 / 32 per pixel for the gradient mean);
         SAD ``8 * block_size**2`` / ``32 * block_size**2`` (OpenCV's rule with one channel); learned costs 29 / 304
-        (MC-CNN's 2.3 / 24.3 divided by 4 on textured pixels, in the kernels' 50 units per unit of dot product).
+        (MC-CNN's 2.3 / 24.3 halved, in the kernels' 25 units per unit of dot product; P2 always divided by the
+        intensity step along the path, as ``adaptive_p2``).
         Units are those of the cost: Hamming bits for census, raw window SAD for "sad" (the kernels
         scale SAD and the penalties together). P2 times ``weak_texture_gain`` is limited by the int16 path
         sums (census 9x7: at most 1344; census+grad 1323). See ``effective_p1`` / ``effective_p2``.
@@ -431,6 +436,12 @@ class SGMParams:
     def learned(self) -> bool:
         """True for a learned cost (``LEARNED_COSTS``): features from a network, see ``learned``."""
         return self.cost in LEARNED_COSTS
+
+    @property
+    def effective_adaptive_p2(self) -> bool:
+        """P2 divided by the intensity step along each path: ``adaptive_p2``, and always for a learned cost (MC-CNN's
+        penalties drop at intensity edges; measured on the shared scenes, docs/matching.md "Learned costs")."""
+        return self.adaptive_p2 or self.learned
 
     @property
     def effective_feature_model(self) -> str | None:

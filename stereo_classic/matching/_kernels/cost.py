@@ -79,9 +79,10 @@ CENSUS_GRAD = 2
 #: network, held as int8 (``round(FEATURE_QUANT * f)``); the cost is ``FEATURE_SCALE * (1 - <fL, fR>)`` (or the
 #: scaled L1 distance), so it lies in [0, 2 * FEATURE_SCALE]. ``feature_row_cost`` computes it a row at a time.
 FEATURES = 3
-#: Cost units per unit of ``1 - <fL, fR>``: 50 leaves room in the int16 sums for MC-CNN's own penalties (P2 24.3
-#: in these units where the texture is weak, ``params.py``) and steps of 0.02 in the dot product.
-FEATURE_SCALE = 50
+#: Cost units per unit of ``1 - <fL, fR>``: 25 leaves room in the int16 sums for twice MC-CNN's own P2 (24.3) times
+#: the weak-texture gain 4 (``params.py``), in steps of 0.04 of the dot product (measured on the shared scenes: the
+#: same bad-2 as steps of 0.02, within 0.1 point per family).
+FEATURE_SCALE = 25
 #: int8 features: ``round(FEATURE_QUANT * f)`` of a unit vector's components (|f| <= 1).
 FEATURE_QUANT = 127
 #: The gradient term of CENSUS_GRAD is (window sum * grad_mul) >> GRAD_SHIFT, i.e. the window mean.
