@@ -31,7 +31,7 @@ from stereo_classic.matching._kernels.features import quantise_rows
 from stereo_classic.matching._kernels.workers import run_tasks
 
 __all__ = ["FeatureModel", "FeatureModelError", "SHIPPED_MODELS", "DEFAULT_MCCNN", "FEATURE_INPUTS", "PROVIDERS",
-           "feature_model", "shipped_model_path", "onnx_feature_bytes", "ORT_PEAK_FACTOR"]
+           "feature_model", "model_for", "memory_terms", "shipped_model_path", "onnx_feature_bytes", "ORT_PEAK_FACTOR"]
 
 _DATA = Path(__file__).with_name("data")
 
@@ -240,6 +240,20 @@ def onnx_feature_bytes(height: int, width: int, channels: int, margin: int) -> i
     for one image at a time (``ORT_PEAK_FACTOR`` times its float32 output)."""
     Hp, Wp = int(height) + 2 * int(margin), int(width) + 2 * int(margin)
     return 2 * 4 * Hp * Wp + ORT_PEAK_FACTOR * 4 * int(channels) * int(height) * int(width)
+
+
+def model_for(params) -> FeatureModel:
+    """The loaded feature network of an ``SGMParams`` with a learned cost (``feature_model``)."""
+    return feature_model(params.effective_feature_model, params.onnx_provider, params.effective_threads)
+
+
+def memory_terms(params, height: int, width: int) -> tuple[int, int]:
+    """(channels, bytes) of a learned cost for ``estimate_memory``: the network's channel count (the kernels count
+    the int8 features) and ``FeatureModel.feature_bytes``; (0, 0) for a classical cost."""
+    if not params.learned:
+        return 0, 0
+    model = model_for(params)
+    return model.channels, model.feature_bytes(height, width)
 
 
 _MODELS: dict[tuple, FeatureModel] = {}

@@ -22,6 +22,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from stereo_classic.matching import learned
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching.params import SGMParams
 from stereo_classic.matching.postprocess import _speckle_and_fill, fill_bytes, speckle_bytes, speckle_fill_bytes
@@ -71,8 +72,8 @@ class DisparityMap:
     params : SGMParams
         The parameters used.
     timings_ms : dict[str, float]
-        Milliseconds per stage: "prepare" (checks + grey conversion), the matcher's stages
-        ("cost", "aggregate", "select", as reported by the kernels), "postprocess", "total".
+        Milliseconds per stage: "prepare" (checks + grey conversion), "features" (learned costs: the network), the
+        matcher's stages ("cost", "aggregate", "select", as reported by the kernels), "postprocess", "total".
     validity : dict[str, int | None]
         Pixel counts: "pixels" (H * W), "valid" (finite in ``disparity``), "unknown_matcher" (NaN
         out of the matcher) = "no_candidate" (columns where no disparity of the range lands inside
@@ -361,10 +362,7 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
     height, width = int(image_shape[0]), int(image_shape[1])
     pixels = height * width
     # the kernels: row buffers (and the sum volume of 4 / 8 paths), outputs (left and right float32), cost inputs
-    channels = features = 0
-    if params.learned:  # the network's int8 features of both views (in the kernels' count) and its run
-        model = _feature_model(params)
-        channels, features = model.channels, model.feature_bytes(height, width)
+    channels, features = learned.memory_terms(params, height, width)  # a learned cost's features and network run
     core = kernels.memory_bytes(height, width, params.num_disparities, paths=params.paths,
                                 lr_check=params.lr_check is not None,
                                 cost="features" if params.learned else params.cost,
@@ -428,13 +426,6 @@ def _short_reach(reach: np.ndarray, params: SGMParams) -> np.ndarray:
     return (reach > 0) & (reach < params.border_reach * params.num_disparities)
 
 
-def _feature_model(params: SGMParams):
-    """The loaded feature network of a learned cost (``learned.feature_model``; loaded once per process)."""
-    from stereo_classic.matching import learned
-
-    return learned.feature_model(params.effective_feature_model, params.onnx_provider, params.effective_threads)
-
-
 def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None = None,
            workspace: kernels.Workspace | None = None, reserved: int = 0) -> DisparityMap:
     """``reserved``: bytes a busy call of the same StereoMatcher holds; when > 0 the memory is checked
@@ -452,12 +443,9 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     _check_finite("right", right_arr)
     gray_left, gray_right = _to_gray_uint8(left_arr, right_arr)
     t1 = time.perf_counter()
-    features, t_features = None, None
-    if params.learned:  # the network's features of both views (int8 unit vectors), then the same kernels
-        features = _feature_model(params).features(gray_left, gray_right, normalisation=params.feature_input,
-                                                    threads=params.effective_threads)
-        t_features = time.perf_counter()
-        t_features, t1 = (t_features - t1) * 1e3, t_features
+    features = None if not params.learned else learned.model_for(params).features(  # int8 unit vectors of both
+        gray_left, gray_right, normalisation=params.feature_input, threads=params.effective_threads)
+    t_features = time.perf_counter()
 
     disparity, disparity_right, core_timings = kernels.sgm_match(
         gray_left, gray_right, cost="features" if params.learned else params.cost,
@@ -492,9 +480,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     # The kernels mark NaN: pixels with no candidate at all, and those failing uniqueness or the LR check
     # (which they count exactly).
     no_candidate = int((reach == 0).sum()) * disparity.shape[0]  # no disparity of the range fits
-    timings = {"prepare": (t1 - t0) * 1e3 - (t_features or 0.0)}
-    if t_features is not None:
-        timings["features"] = t_features
+    timings = {"prepare": (t1 - t0) * 1e3, **({"features": (t_features - t1) * 1e3} if params.learned else {})}
     timings.update({k: float(v) for k, v in dict(core_timings).items() if not k.startswith("n_")})
     timings["postprocess"] = (t3 - t2) * 1e3
     timings["total"] = (t3 - t0) * 1e3

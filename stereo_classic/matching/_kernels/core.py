@@ -39,9 +39,6 @@ from stereo_classic.matching._kernels.aggregate import (
 )
 from stereo_classic.matching._kernels.cost import (
     CENSUS,
-    FEATURE_QUANT,
-    FEATURE_SCALE,
-    FEATURES,
     SAD,
     CostImages,
     CostSettings,
@@ -52,6 +49,7 @@ from stereo_classic.matching._kernels.cost import (
     sobel_rows,
     weak_texture_scale,
 )
+from stereo_classic.matching._kernels.features import FEATURES, check_features, with_features
 from stereo_classic.matching._kernels.rowpass import (
     RowPassBuffers,
     StripePlan,
@@ -65,7 +63,7 @@ __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume"
            "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
            "ALL_PATHS", "FOUR_PATHS", "THREE_PATHS", "PATH_NAMES", "PATH_STEPS", "PATH_MASKS",
            "STRIPE_ROWS", "WARMUP_ROWS", "stripes", "usable_cpus", "run_chained", "run_stripes", "run_tasks",
-           "scratch_allocator", "workers_for", "DISPARITY_BLOCK", "FEATURE_SIMILARITIES", "feature_cost_terms", "MIN_DISPARITIES_ONE_SWEEP", "padded_disparities"]
+           "scratch_allocator", "workers_for", "DISPARITY_BLOCK", "MIN_DISPARITIES_ONE_SWEEP", "padded_disparities"]
 
 #: ``paths`` (the number of aggregation directions) -> the direction mask of the passes.
 PATH_MASKS = {8: ALL_PATHS, 4: FOUR_PATHS, 3: THREE_PATHS}
@@ -182,18 +180,14 @@ def _reset_buffers(b: ThreadBuffers, D: int) -> None:
 
 
 def _row_cost_buffers(W: int, D: int, kind: int, h: int, channels: int = 0) -> RowCostBuffers:
-    if kind == FEATURES:  # the reversed right row of every channel and the channel sums (float32)
-        return RowCostBuffers(
-            colsum=np.zeros(1, np.int16), hsum=np.zeros(1, np.int16), rrev=np.zeros(1, np.uint16),
-            srev=np.zeros(1, np.int16), irev=np.zeros(1, np.int16), floor=np.zeros(D, np.int16),
-            frev=np.zeros(max(1, channels) * (W + D - 1), np.float32), facc=np.zeros(D, np.float32))
-    grad = kind != CENSUS
+    grad, feat = kind not in (CENSUS, FEATURES), kind == FEATURES  # feat: right rows and channel sums, float32
     L = 2 * (W + 2 * h + D - 1)  # two reversed right rows
     return RowCostBuffers(
         colsum=np.zeros((W + 2 * h) * D if grad else 1, np.int16), hsum=np.zeros(D, np.int16),
-        rrev=np.zeros(4 * (W + D - 1) if kind != SAD else 1, np.uint16),
+        rrev=np.zeros(4 * (W + D - 1) if kind not in (SAD, FEATURES) else 1, np.uint16),
         srev=np.zeros(L if grad else 1, np.int16), irev=np.zeros(L if kind == SAD else 1, np.int16),
-        floor=np.zeros(D, np.int16), frev=np.zeros(1, np.float32), facc=np.zeros(1, np.float32))
+        floor=np.zeros(D, np.int16), frev=np.zeros(max(1, channels) * (W + D - 1) if feat else 1, np.float32),
+        facc=np.zeros(D if feat else 1, np.float32))
 
 
 def _set_floor(bufs: RowCostBuffers, settings: CostSettings) -> None:
@@ -280,8 +274,7 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     2 * (D + 2) * (3 W + 3 H) bytes per worker thread, at most one worker per stripe). 3 paths (the one-sweep
     kernel): no volume, W x D row buffers, the costs of WARMUP_ROWS rows and the top path's skewed vectors per
     worker (about 2 * D * (20 W + H) bytes). ``lr_check`` does not change it. D is the padded number
-    (``padded_disparities``). ``cost="features"``: the int8 features of both views (2 * C * H * W bytes, C =
-    ``feature_channels``) instead of census codes and gradients, and a float32 right row per channel per worker.
+    (``padded_disparities``). ``cost="features"``: int8 features (2 * C * H * W, C = ``feature_channels``).
     """
     H, W, D = int(height), int(width), padded_disparities(num_disparities, paths)
     kind = _KIND.get(cost, CENSUS)
@@ -356,47 +349,8 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
     tasks = [(0, None)] + [(side, band) for side in (0, 1) for band in stripes(H) if census or sobel]
     run_tasks(tasks, workers_for(threads, len(tasks)), rows)
     (_, lcode, _, lsob, lint), (_, rcode, _, rsob, rint) = views
-    if cost != "features":
-        return CostImages(left, lcode, rcode, lsob, lint, rsob, rint, scale)
-    lfeat, rfeat = _check_features(features, H, W)
-    return CostImages(left, lcode, rcode, lsob, lint, rsob, rint, scale, lfeat, rfeat)
-
-
-def _check_features(features, H: int, W: int) -> tuple[np.ndarray, np.ndarray]:
-    """The (left, right) pair of (H, C, W) int8 features of ``cost="features"``; ValueError otherwise."""
-    ok = isinstance(features, (tuple, list)) and len(features) == 2
-    if ok:
-        lf, rf = features
-        ok = (isinstance(lf, np.ndarray) and isinstance(rf, np.ndarray) and lf.dtype == rf.dtype == np.int8
-              and lf.ndim == 3 and lf.shape == rf.shape and lf.shape[0] == H and lf.shape[2] == W
-              and lf.shape[1] >= 1 and lf.flags.c_contiguous and rf.flags.c_contiguous and lf is not rf)
-    if not ok:
-        raise ValueError(f"`features` must be two distinct C-contiguous int8 arrays (H, C, W) with (H, W) = {(H, W)}, "
-                         f"got {_describe(features)}")
-    return lf, rf
-
-
-def _describe(features) -> str:
-    if isinstance(features, (tuple, list)):
-        return ", ".join(f"{getattr(a, 'dtype', type(a).__name__)} {getattr(a, 'shape', '')}" for a in features)
-    return type(features).__name__
-
-
-#: ``feature_similarity`` values of ``sgm_match``.
-FEATURE_SIMILARITIES = ("dot", "l1")
-
-
-def feature_cost_terms(similarity: str, channels: int) -> tuple[int, float, float]:
-    """(feature_l1, feature_base, feature_mul) of ``CostSettings`` for int8 unit features of ``channels`` channels:
-    dot: ``FEATURE_SCALE * (1 - acc / FEATURE_QUANT**2)`` rounded; L1: ``FEATURE_SCALE * acc / (FEATURE_QUANT *
-    sqrt(C))`` rounded (the L1 distance of unit vectors over sqrt(C): about their L2 distance, at most 2 for
-    vectors spread over the channels; clipped at 2)."""
-    if similarity == "dot":
-        return 0, FEATURE_SCALE + 0.5, -FEATURE_SCALE / FEATURE_QUANT**2
-    if similarity == "l1":
-        return 1, 0.5, FEATURE_SCALE / (FEATURE_QUANT * float(np.sqrt(channels)))
-    raise ValueError(f"`feature_similarity` must be one of {', '.join(map(repr, FEATURE_SIMILARITIES))}, "
-                     f"got {similarity!r}")
+    feats = check_features(features, H, W) if cost == "features" else ()  # else the placeholders
+    return CostImages(left, lcode, rcode, lsob, lint, rsob, rint, scale, *feats)
 
 
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
@@ -421,11 +375,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     cost_settings = CostSettings(kind=kind, min_disparity=dmin, half_block=h, shift=shift, cmax=cmax,
                                  invalid_cost=cmax + 2 * (p2_top >> shift) + 1, num_disparities=n_disp,
                                  grad_mul=grad_mul(block_size) if cost == "census+grad" else 0)
-    channels = 0
-    if kind == FEATURES:
-        channels = _check_features(features, H, W)[0].shape[1]
-        cost_settings = cost_settings._replace(**dict(zip(("feature_l1", "feature_base", "feature_mul"),
-                                                          feature_cost_terms(feature_similarity, channels))))
+    cost_settings, channels = with_features(cost_settings, features, feature_similarity, H, W)
     timings = {}
 
     t0 = time.perf_counter()
@@ -571,9 +521,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
         LR check on; otherwise about 5 % more time).
     scratch_output : the left disparity may be an array of ``workspace``, overwritten by its next call (for a
         caller that makes a new map of it anyway).
-    features, feature_similarity : ``cost="features"``: the int8 unit feature vectors of both views, (H, C, W) each
-        (``learned.FeatureModel.features``), and "dot" (``FEATURE_SCALE * (1 - <fL, fR>)``)
-        or "l1" (``feature_cost_terms``); the penalties are in those cost units.
+    features, feature_similarity : ``cost="features"``: the int8 unit features of both views, (H, C, W) each
+        (``learned.FeatureModel.features``), and "dot" or "l1" (``features.feature_cost_terms``: the cost units).
 
     Returns
     -------
@@ -642,11 +591,7 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
                             half_block=block_size // 2 if kind != CENSUS else 0, shift=shift, cmax=cmax,
                             invalid_cost=cmax + 2 * (int(p2) >> shift) + 1, num_disparities=n_disp,
                             grad_mul=grad_mul(block_size) if cost == "census+grad" else 0)
-    channels = 0
-    if kind == FEATURES:
-        channels = _check_features(features, H, W)[0].shape[1]
-        settings = settings._replace(**dict(zip(("feature_l1", "feature_base", "feature_mul"),
-                                                feature_cost_terms(feature_similarity, channels))))
+    settings, channels = with_features(settings, features, feature_similarity, H, W)
     images = _prepare_cost(left, right, cost, census_window, features=features)
     out = np.empty((H, W, D), np.int16)
     bufs = _row_cost_buffers(W, D, kind, settings.half_block, channels)

@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
+from stereo_classic.matching._kernels.features import FEATURE_QUANT, FEATURE_SCALE, FEATURES, feature_row_cost
 from stereo_classic.matching._kernels.intrinsics import (
     absdiff16,
     add16,
@@ -75,16 +76,6 @@ SAD = 1
 #: census + x-gradient SAD: the census Hamming cost plus the window mean of |Sobel_x(L) - Sobel_x(R)|
 #: (no intensity term: gradients do not change with an exposure offset between the cameras).
 CENSUS_GRAD = 2
-#: Learned features (``stereo_classic.matching.learned``): per pixel a unit vector of C channels from a feature
-#: network, held as int8 (``round(FEATURE_QUANT * f)``); the cost is ``FEATURE_SCALE * (1 - <fL, fR>)`` (or the
-#: scaled L1 distance), so it lies in [0, 2 * FEATURE_SCALE]. ``feature_row_cost`` computes it a row at a time.
-FEATURES = 3
-#: Cost units per unit of ``1 - <fL, fR>``: 25 leaves room in the int16 sums for twice MC-CNN's own P2 (24.3) times
-#: the weak-texture gain 4 (``params.py``), in steps of 0.04 of the dot product (measured on the shared scenes: the
-#: same bad-2 as steps of 0.02, within 0.1 point per family).
-FEATURE_SCALE = 25
-#: int8 features: ``round(FEATURE_QUANT * f)`` of a unit vector's components (|f| <= 1).
-FEATURE_QUANT = 127
 #: The gradient term of CENSUS_GRAD is (window sum * grad_mul) >> GRAD_SHIFT, i.e. the window mean.
 GRAD_SHIFT = 10
 #: Weak texture: a pixel whose TEXTURE_WINDOW x TEXTURE_WINDOW window mean of |Sobel_x| (left image, grey levels)
@@ -500,74 +491,6 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
                                          floor[k])
     nd = cost.num_disparities
     for x in range(W):  # disparities whose match is outside the right image: k outside [k_lo, k_hi]
-        k_lo, k_hi = valid_range(x, W, dmin, nd)
-        if k_lo > 0 or k_hi < nd - 1:
-            cb = x * D
-            for k in range(nd):
-                if k < k_lo or k > k_hi:
-                    crow[_U(cb + k)] = cinv
-
-
-@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow):  # pragma: no cover - numba
-    """``row_cost`` of ``FEATURES``: ``crow[x * D + k]`` from the int8 feature vectors of row ``y``.
-
-    ``lfeat``, ``rfeat``: (H, C, W) int8 (``CostImages``). The right row is copied reversed into ``frev`` as
-    float32, one run of ``W + D - 1`` per channel, so that the D candidates of a left pixel are a contiguous slice
-    per channel; per pixel the channel sums (products for the dot product, absolute differences for L1) are
-    accumulated over the D candidates at once (vectors over k), four channels a sweep of the sums (measured 1.26x
-    faster than one). Every product and sum is an integer below 2**24, so float32 holds them exactly and the order
-    of the additions does not matter. The cost is
-    ``clip(feature_base + sum * feature_mul, 0, cmax)`` truncated to int16; matches outside the right image and
-    the padding get ``invalid_cost`` as in ``row_cost``.
-    """
-    C = lfeat.shape[1]
-    W = lfeat.shape[2]
-    D = crow.shape[0] // W
-    dmin = cost.min_disparity
-    nrr = W + D - 1
-    for ch in range(C):  # frev[ch * nrr + j] = right feature ch at column clamp(W - 1 - dmin - j)
-        base = ch * nrr
-        for j in range(nrr):
-            frev[_U(base + j)] = np.float32(rfeat[y, ch, _clamp(W - 1 - dmin - j, W)])
-    fbase = np.float32(cost.feature_base)
-    fmul = np.float32(cost.feature_mul)
-    top = np.float32(cost.cmax)
-    zero = np.float32(0.0)
-    l1 = cost.feature_l1 != 0
-    for x in range(W):
-        j0 = W - 1 - x
-        for k in range(D):
-            facc[k] = zero
-        c4 = 0 if l1 else C - C % 4
-        for ch in range(0, c4, 4):  # dot product, four channels at a time
-            a0 = np.float32(lfeat[y, ch, x])
-            a1 = np.float32(lfeat[y, ch + 1, x])
-            a2 = np.float32(lfeat[y, ch + 2, x])
-            a3 = np.float32(lfeat[y, ch + 3, x])
-            b0 = ch * nrr + j0
-            b1 = b0 + nrr
-            b2 = b1 + nrr
-            b3 = b2 + nrr
-            for k in range(D):
-                facc[k] += ((a0 * frev[_U(b0 + k)] + a1 * frev[_U(b1 + k)])
-                            + (a2 * frev[_U(b2 + k)] + a3 * frev[_U(b3 + k)]))
-        for ch in range(c4, C):
-            a = np.float32(lfeat[y, ch, x])
-            b = ch * nrr + j0
-            if l1:
-                for k in range(D):
-                    facc[k] += abs(a - frev[_U(b + k)])
-            else:
-                for k in range(D):
-                    facc[k] += a * frev[_U(b + k)]
-        cb = x * D
-        for k in range(D):
-            v = min(max(fbase + facc[k] * fmul, zero), top)
-            crow[_U(cb + k)] = max16(np.int16(v), floor[k])
-    cinv = np.int16(cost.invalid_cost)
-    nd = cost.num_disparities
-    for x in range(W):  # disparities whose match is outside the right image, as in row_cost
         k_lo, k_hi = valid_range(x, W, dmin, nd)
         if k_lo > 0 or k_hi < nd - 1:
             cb = x * D
