@@ -11,8 +11,8 @@ Methods (all on the same detections, the same rig, the same disparity range):
 - ``run``: :class:`stereo_classic.Localizer` as ``run`` builds it: the default detector (``yolox_nano`` via
   ``detectors.resolve_model``, ``run``'s thresholds), ``SGMParams()`` defaults with ``run``'s disparity range
   (``CLI_NUM_DISPARITIES``), ``FusionParams()`` defaults, the frame checks on.
-- ``run-mccnn``: ``run --cost mccnn``'s matcher (``SGMParams(cost="mccnn")``, the learned cost of the shipped MC-CNN,
-  the same range) on the same detections, with the same fusion (:func:`stereo_classic.localize`, same seed).
+- ``run-mccnn``: ``run --cost mccnn``: the same :class:`stereo_classic.Localizer` with ``SGMParams(cost="mccnn")``
+  (the learned cost of the shipped MC-CNN, the same range): the same detections, fusion, seed and frame checks.
 - ``ocv-3way``: OpenCV ``MODE_SGBM_3WAY`` (``benchmarks.methods.opencv_methods``, block size = ``SGMParams()``'s)
   and the same fusion (:func:`stereo_classic.localize`, ``FusionParams()``, same seed).
 - ``depthai-median``: the median depth of this project's measured disparity (``DisparityMap.measured_disparity``:
@@ -241,11 +241,12 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
     # DepthAI's median reads measured pixels only: values the matcher filled into holes are not measurements
     our_disp = np.asarray(getattr(result.disparity, "measured_disparity", result.disparity.disparity))
     fused: dict[str, Any] = {"run": result.objects}
-    if "run-mccnn" in methods:  # run --cost mccnn's matcher, the same detections and fusion
-        from stereo_classic.matching import compute_disparity
-
-        learned = compute_disparity(scene.left, scene.right, params.replace(cost="mccnn"))
-        fused["run-mccnn"] = localize(dets, learned, rig, fusion, rng=seed)
+    if "run-mccnn" in methods:  # run --cost mccnn: the same detector (so the same detections), fusion and checks
+        with Localizer(rig, detector, params.replace(cost="mccnn"), fusion=fusion, seed=seed) as loc:
+            learned = loc(scene.left, scene.right)
+        if not np.array_equal(np.asarray(learned.detections.xyxy), np.asarray(dets.xyxy)):
+            raise RuntimeError("the detector gave other detections on the second run: labels would not match")
+        fused["run-mccnn"] = learned.objects
     if "ocv-3way" in methods:
         ocv = next(m for m in opencv_methods() if m.name == "ocv-3way")
         setup = Setup(num_disparities=params.num_disparities, min_disparity=params.min_disparity,
