@@ -11,6 +11,8 @@ Methods (all on the same detections, the same rig, the same disparity range):
 - ``run``: :class:`stereo_classic.Localizer` as ``run`` builds it: the default detector (``yolox_nano`` via
   ``detectors.resolve_model``, ``run``'s thresholds), ``SGMParams()`` defaults with ``run``'s disparity range
   (``CLI_NUM_DISPARITIES``), ``FusionParams()`` defaults, the frame checks on.
+- ``run-mccnn``: ``run --cost mccnn``: the same :class:`stereo_classic.Localizer` with ``SGMParams(cost="mccnn")``
+  (the learned cost of the shipped MC-CNN, the same range): the same detections, fusion, seed and frame checks.
 - ``ocv-3way``: OpenCV ``MODE_SGBM_3WAY`` (``benchmarks.methods.opencv_methods``, block size = ``SGMParams()``'s)
   and the same fusion (:func:`stereo_classic.localize`, ``FusionParams()``, same seed).
 - ``depthai-median``: the median depth of this project's measured disparity (``DisparityMap.measured_disparity``:
@@ -44,7 +46,7 @@ __all__ = ["DEFAULT_METHODS", "half_box_median", "in_view", "kitti_object_benchm
 log = logging.getLogger("benchmarks.kitti_objects")
 
 #: Methods compared, in table order.
-DEFAULT_METHODS: tuple[str, ...] = ("run", "ocv-3way", "depthai-median")
+DEFAULT_METHODS: tuple[str, ...] = ("run", "run-mccnn", "ocv-3way", "depthai-median")
 #: Detector classes a labelled car may be matched to (a car is sometimes called a truck).
 VEHICLE_CLASSES: tuple[str, ...] = ("car", "truck", "bus")
 #: Smallest 2D IoU of a label-detection match.
@@ -53,7 +55,7 @@ MIN_IOU = 0.5
 BAR_PCT = 3.0
 #: Labels with at most this truncation count as "not truncated" (KITTI's "easy" limit).
 MAX_TRUNCATION = 0.15
-_FUSION_METHODS = ("run", "ocv-3way")
+_FUSION_METHODS = ("run", "run-mccnn", "ocv-3way")
 
 
 def _pair_folder(data_dir: str | Path | None) -> Path:
@@ -241,6 +243,12 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
     # DepthAI's median reads measured pixels only: values the matcher filled into holes are not measurements
     our_disp = np.asarray(getattr(result.disparity, "measured_disparity", result.disparity.disparity))
     fused: dict[str, Any] = {"run": result.objects}
+    if "run-mccnn" in methods:  # run --cost mccnn: the same detector (so the same detections), fusion and checks
+        with Localizer(rig, detector, params.replace(cost="mccnn"), fusion=fusion, seed=seed) as loc:
+            learned = loc(scene.left, scene.right)
+        if not np.array_equal(np.asarray(learned.detections.xyxy), np.asarray(dets.xyxy)):
+            raise RuntimeError("the detector gave other detections on the second run: labels would not match")
+        fused["run-mccnn"] = learned.objects
     if "ocv-3way" in methods:
         ocv = next(m for m in opencv_methods() if m.name == "ocv-3way")
         setup = Setup(num_disparities=params.num_disparities, min_disparity=params.min_disparity,
@@ -318,7 +326,8 @@ def _fmt(value: float | None, spec: str = ".2f", suffix: str = "") -> str:
     return "–" if value is None else f"{signed_zero_free(format(value, spec), spec)}{suffix}"
 
 
-_TITLES = {"run": "`run`", "ocv-3way": "3WAY + fusion", "depthai-median": "DepthAI median"}
+_TITLES = {"run": "`run`", "run-mccnn": "`run --cost mccnn`", "ocv-3way": "3WAY + fusion",
+           "depthai-median": "DepthAI median"}
 
 
 def render_markdown(result: dict[str, Any]) -> str:

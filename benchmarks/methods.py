@@ -245,6 +245,7 @@ def opencv_methods() -> list[Method]:
 #: (name, overrides of SGMParams(), what it is) of the matcher variants; short: every one runs on every scene.
 _MATCHER_VARIANTS: tuple[tuple[str, dict[str, Any], str], ...] = (
     ("sc-default", {}, "stereo_classic SGMParams() defaults"),
+    ("sc-mccnn", {"cost": "mccnn"}, "the default with the learned cost of the shipped MC-CNN fast network"),
     ("sc-census-8", {"cost": "census", "paths": 8, "lr_check": None, "fill_holes": False},
      "the previous default (before commit cfc357c)"),
     ("sc-census-3", {"cost": "census"}, "the default with the plain census cost"),

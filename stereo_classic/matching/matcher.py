@@ -22,6 +22,7 @@ from typing import Any
 import cv2
 import numpy as np
 
+from stereo_classic.matching import learned
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching.params import SGMParams
 from stereo_classic.matching.postprocess import _speckle_and_fill, fill_bytes, speckle_bytes, speckle_fill_bytes
@@ -71,8 +72,8 @@ class DisparityMap:
     params : SGMParams
         The parameters used.
     timings_ms : dict[str, float]
-        Milliseconds per stage: "prepare" (checks + grey conversion), the matcher's stages
-        ("cost", "aggregate", "select", as reported by the kernels), "postprocess", "total".
+        Milliseconds per stage: "prepare" (checks + grey conversion), "features" (learned costs: the network), the
+        matcher's stages ("cost", "aggregate", "select", as reported by the kernels), "postprocess", "total".
     validity : dict[str, int | None]
         Pixel counts: "pixels" (H * W), "valid" (finite in ``disparity``), "unknown_matcher" (NaN
         out of the matcher) = "no_candidate" (columns where no disparity of the range lands inside
@@ -361,9 +362,12 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
     height, width = int(image_shape[0]), int(image_shape[1])
     pixels = height * width
     # the kernels: row buffers (and the sum volume of 4 / 8 paths), outputs (left and right float32), cost inputs
+    channels, features = learned.memory_terms(params, height, width)  # a learned cost's features and network run
     core = kernels.memory_bytes(height, width, params.num_disparities, paths=params.paths,
-                                lr_check=params.lr_check is not None, cost=params.cost,
-                                block_size=params.block_size, threads=params.effective_threads)
+                                lr_check=params.lr_check is not None,
+                                cost="features" if params.learned else params.cost,
+                                block_size=params.block_size, threads=params.effective_threads,
+                                feature_channels=channels) + features
     conversion = _conversion_bytes((height, width), dtype)
     post = 4 * pixels  # the border columns' copy
     if params.speckle_size > 0 and params.fill_holes:
@@ -439,11 +443,15 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     _check_finite("right", right_arr)
     gray_left, gray_right = _to_gray_uint8(left_arr, right_arr)
     t1 = time.perf_counter()
+    features = None if not params.learned else learned.model_for(params).features(  # int8 unit vectors of both
+        gray_left, gray_right, normalisation=params.feature_input, threads=params.effective_threads)
+    t_features = time.perf_counter()
 
     disparity, disparity_right, core_timings = kernels.sgm_match(
-        gray_left, gray_right, cost=params.cost, min_disparity=params.min_disparity,
+        gray_left, gray_right, cost="features" if params.learned else params.cost,
+        features=features, feature_similarity=params.feature_similarity, min_disparity=params.min_disparity,
         num_disparities=params.num_disparities, block_size=params.block_size, census_window=params.census_window,
-        p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.adaptive_p2,
+        p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.effective_adaptive_p2,
         weak_texture_gain=params.weak_texture_gain,
         uniqueness=params.uniqueness / 100.0, lr_check=params.lr_check, subpixel=params.subpixel,
         threads=params.effective_threads,
@@ -472,7 +480,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     # The kernels mark NaN: pixels with no candidate at all, and those failing uniqueness or the LR check
     # (which they count exactly).
     no_candidate = int((reach == 0).sum()) * disparity.shape[0]  # no disparity of the range fits
-    timings = {"prepare": (t1 - t0) * 1e3}
+    timings = {"prepare": (t1 - t0) * 1e3, **({"features": (t_features - t1) * 1e3} if params.learned else {})}
     timings.update({k: float(v) for k, v in dict(core_timings).items() if not k.startswith("n_")})
     timings["postprocess"] = (t3 - t2) * 1e3
     timings["total"] = (t3 - t0) * 1e3

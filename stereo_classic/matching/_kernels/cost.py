@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
+from stereo_classic.matching._kernels.features import FEATURE_QUANT, FEATURE_SCALE, FEATURES, feature_row_cost
 from stereo_classic.matching._kernels.intrinsics import (
     absdiff16,
     add16,
@@ -41,6 +42,9 @@ __all__ = [
     "SAD_PIXEL_MAX",
     "CENSUS",
     "CENSUS_GRAD",
+    "FEATURES",
+    "FEATURE_SCALE",
+    "FEATURE_QUANT",
     "GRAD_SHIFT",
     "SAD",
     "CostImages",
@@ -54,6 +58,7 @@ __all__ = [
     "sad_prefilter",
     "sobel_rows",
     "cost_volume_kernel",
+    "feature_row_cost",
     "NoAliasCompiler",
     "TEXTURE_REFERENCE",
     "TEXTURE_WINDOW",
@@ -103,6 +108,9 @@ class CostImages(NamedTuple):
     penalty_scale : (H, W) uint8
         Per pixel, the factor of P1 and P2 in sixteenths (16 = 1), ``weak_texture_scale``: the aggregation
         uses ``(P * scale + 8) >> 4`` at the pixel.
+    left_features, right_features : (H, C, W) int8
+        ``FEATURES``: the quantised unit feature vectors of each view, one image row per channel; (1, 1, 1)
+        otherwise.
     """
 
     left: np.ndarray
@@ -113,6 +121,8 @@ class CostImages(NamedTuple):
     right_sobel: np.ndarray
     right_intensity: np.ndarray
     penalty_scale: np.ndarray
+    left_features: np.ndarray = np.zeros((1, 1, 1), np.int8)
+    right_features: np.ndarray = np.zeros((1, 1, 1), np.int8)
 
 
 class CostSettings(NamedTuple):
@@ -137,6 +147,11 @@ class CostSettings(NamedTuple):
         blocks); the indices past ``num_disparities`` get ``invalid_cost``, like a match outside the right image.
     grad_mul : int
         ``CENSUS_GRAD``: ``round(2**GRAD_SHIFT / block_size**2)``, the gradient window sum to its mean; 0 otherwise.
+    feature_l1 : int
+        ``FEATURES``: 1 = L1 distance of the feature vectors, 0 = dot product.
+    feature_base, feature_mul : float
+        ``FEATURES``: the cost is ``clip(feature_base + acc * feature_mul, 0, cmax)`` truncated, ``acc`` the
+        channel sum of the int8 products (dot) or absolute differences (L1), exact in float32.
     """
 
     kind: int
@@ -147,6 +162,9 @@ class CostSettings(NamedTuple):
     invalid_cost: int
     num_disparities: int
     grad_mul: int = 0
+    feature_l1: int = 0
+    feature_base: float = 0.0
+    feature_mul: float = 0.0
 
 
 def census_bits(census_window: tuple[int, int]) -> int:
@@ -260,6 +278,10 @@ class RowCostBuffers(NamedTuple):
     floor : (D,) int16
         0 for the disparities of the range, the invalid cost for the padding past it (``CostSettings``): the cost
         of index k is at least ``floor[k]`` (one vector max, instead of a remainder loop per pixel).
+    frev : (C * (W + D - 1),) float32
+        ``FEATURES``: the right row's features, reversed, one run per channel ((1,) otherwise).
+    facc : (D,) float32
+        ``FEATURES``: the channel sums of the current pixel ((1,) otherwise).
     """
 
     colsum: np.ndarray
@@ -268,6 +290,8 @@ class RowCostBuffers(NamedTuple):
     srev: np.ndarray
     irev: np.ndarray
     floor: np.ndarray
+    frev: np.ndarray = np.zeros(1, np.float32)
+    facc: np.ndarray = np.zeros(1, np.float32)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -393,6 +417,10 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     match falls outside the right image get ``invalid_cost``, and so do the padding indices ``k >=
     cost.num_disparities`` (``crow`` holds ``len(crow) // W`` per pixel).
     """
+    if cost.kind == FEATURES:  # learned features: a cost of their own (``feature_row_cost``)
+        feature_row_cost(images.left_features, images.right_features, cost, y, bufs.frev, bufs.facc, bufs.floor,
+                         crow)
+        return
     lcode = images.left_code
     rcode = images.right_code
     lsob = images.left_sobel
