@@ -102,21 +102,21 @@ def test_every_option_cli_md_names_exists(helps):
 
 
 def test_the_choices_cli_md_lists_are_the_commands(helps):
-    shown: dict[str, set[str]] = {}
+    shown: dict[str, list[set[str]]] = {}  # a flag may have other choices in another command (sgm_speed's --cost)
     for options in helps.values():
         for option, meta in options.items():
             if _choices(meta) is not None:
-                shown.setdefault(option, set()).update(_choices(meta))
+                shown.setdefault(option, []).append(_choices(meta))
     text = CLI_MD.read_text(encoding="utf-8").replace("\\|", "|")
     wrong = []
     for option, listed in re.findall(r"`(--[a-z][\w-]*) ([a-z0-9+]+(?:\|[a-z0-9+]+)+)", text):
-        if option in shown and set(listed.split("|")) != shown[option]:
-            wrong.append(f"{option} {listed}: the command has {'|'.join(sorted(shown[option]))}")
+        if option in shown and set(listed.split("|")) not in shown[option]:
+            wrong.append(f"{option} {listed}: the commands have " + " or ".join("|".join(sorted(c)) for c in shown[option]))
     assert not wrong, "docs/cli.md lists other choices than the commands:\n" + "\n".join(wrong)
 
 
 def test_the_comparison_reads_what_it_compares(helps):
     """The test above is not empty: it reads the matcher's cost and paths, and a wrong list fails it."""
     assert _choices(helps["stereo_classic run"]["--paths"]) == {"3", "4", "8"}
-    assert _choices(helps["stereo_classic disparity"]["--cost"]) == {"census+grad", "census", "sad"}
+    assert {"census+grad", "census", "sad"} <= _choices(helps["stereo_classic disparity"]["--cost"])
     assert not _named("--fill-holes", "`--no-fill-holes`") and _named("--no-fill-holes", "`--no-fill-holes`")
