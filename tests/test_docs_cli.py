@@ -111,7 +111,8 @@ def test_the_choices_cli_md_lists_are_the_commands(helps):
     wrong = []
     for option, listed in re.findall(r"`(--[a-z][\w-]*) ([a-z0-9+]+(?:\|[a-z0-9+]+)+)", text):
         if option in shown and set(listed.split("|")) not in shown[option]:
-            wrong.append(f"{option} {listed}: the commands have " + " or ".join("|".join(sorted(c)) for c in shown[option]))
+            have = " or ".join("|".join(sorted(c)) for c in shown[option])
+            wrong.append(f"{option} {listed}: the commands have {have}")
     assert not wrong, "docs/cli.md lists other choices than the commands:\n" + "\n".join(wrong)
 
 

@@ -38,9 +38,10 @@ def test_detector_latency_table_is_the_report(report):
     text = (REPO / "docs" / "detectors.md").read_text(encoding="utf-8")
     table = [line for line in text.splitlines() if re.match(r"\| \w+ \| \d+x\d+ \| \d \|", line)]
     expected = {f"| {r['model'].removesuffix('.onnx')} | {r['input_size'][0]}x{r['input_size'][1]} | {r['threads']} | "
-                f"{r['preprocess_ms']:.2f} | {r['inference_ms']:.2f} | {r['postprocess_ms']:.2f} | {r['total_ms']:.2f} |"
-                for r in rows}
-    assert set(table) == expected, "docs/detectors.md's latency table is not the report's:\n" + "\n".join(sorted(expected))
+                f"{r['preprocess_ms']:.2f} | {r['inference_ms']:.2f} | {r['postprocess_ms']:.2f} | "
+                f"{r['total_ms']:.2f} |" for r in rows}
+    assert set(table) == expected, ("docs/detectors.md's latency table is not the report's:\n"
+                                    + "\n".join(sorted(expected)))
 
 
 def _fmt(values) -> str:
