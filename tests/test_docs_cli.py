@@ -121,3 +121,13 @@ def test_the_comparison_reads_what_it_compares(helps):
     assert _choices(helps["stereo_classic run"]["--paths"]) == {"3", "4", "8"}
     assert {"census+grad", "census", "sad"} <= _choices(helps["stereo_classic disparity"]["--cost"])
     assert not _named("--fill-holes", "`--no-fill-holes`") and _named("--no-fill-holes", "`--no-fill-holes`")
+
+
+def test_every_benchmark_command_is_in_cli_md_and_in_this_test():
+    """Each module of benchmarks/ with a command line (a ``main``) has a row in cli.md's table of commands, and its
+    options are compared above (a new command cannot go undocumented)."""
+    modules = sorted(p.stem for p in (REPO / "benchmarks").glob("*.py")
+                     if not p.stem.startswith("_") and "\ndef main(" in p.read_text(encoding="utf-8"))
+    table = CLI_MD.read_text(encoding="utf-8").split("\n## ", 1)[0]  # the table at the top of the page
+    assert [m for m in modules if f"`python -m benchmarks.{m}" not in table] == []
+    assert [m for m in modules if f"benchmarks.{m}" not in _IDS] == []
