@@ -13,7 +13,7 @@ Methods (all on the same detections, the same rig, the same disparity range):
   (``CLI_NUM_DISPARITIES``), ``FusionParams()`` defaults, the frame checks on.
 - ``ocv-3way``: OpenCV ``MODE_SGBM_3WAY`` (``benchmarks.methods.opencv_methods``, block size = ``SGMParams()``'s)
   and the same fusion (:func:`stereo_classic.localize`, ``FusionParams()``, same seed).
-- ``depthai-median``: the median depth of this project's measured disparity (``DisparityMap.measured_disparity``:
+- ``depthai-median``: the median depth of this project's measured disparity (``DisparityMap.disparity``:
   no filled pixels) inside the box shrunk to half its width and height about its centre (what DepthAI's
   SpatialLocationCalculator reports, without its depth thresholds).
 
@@ -237,7 +237,7 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
         result = loc(scene.left, scene.right)
     dets = result.detections
     # DepthAI's median reads measured pixels only: values the matcher filled into holes are not measurements
-    our_disp = np.asarray(getattr(result.disparity, "measured_disparity", result.disparity.disparity))
+    our_disp = np.asarray(result.disparity.disparity)
     fused: dict[str, Any] = {"run": result.objects}
     if "ocv-3way" in methods:
         ocv = next(m for m in opencv_methods() if m.name == "ocv-3way")

@@ -201,11 +201,9 @@ def _resolve_params(params: FusionParams | None, overrides: dict[str, Any]) -> F
 def _disparity_array(disparity_map: Any) -> np.ndarray:
     """The (H, W) real disparity array of a DisparityMap (or of anything with ``.disparity``) or an array.
 
-    Of a DisparityMap, only the measured pixels (``measured_disparity``): values filled into holes are
-    guesses and never make a distance."""
-    disp_src = getattr(disparity_map, "measured_disparity", None)
-    if disp_src is None:
-        disp_src = getattr(disparity_map, "disparity", disparity_map)  # DisparityMap or a foreign look-alike
+    Of a DisparityMap, ``disparity``: the measured pixels only (values filled into holes are in
+    ``filled_disparity``; they are guesses and never make a distance)."""
+    disp_src = getattr(disparity_map, "disparity", disparity_map)  # DisparityMap or a foreign look-alike
     try:
         disp = np.asarray(disp_src)
     except (TypeError, ValueError) as exc:

@@ -61,10 +61,16 @@ class MemoryBudgetError(ValueError):
 class DisparityMap:
     """A disparity map with the parameters that made it, per-stage timings and a validity summary.
 
+    Measured by default, filled by name: ``disparity`` holds only what was measured (NaN where unknown,
+    also where ``fill_holes`` put a value); the dense map with the holes filled is ``filled_disparity``.
+
     Attributes
     ----------
     disparity : (H, W) float32
-        Left-view disparity in pixels, ``d = x_left - x_right``; NaN where unknown.
+        Left-view disparity in pixels, ``d = x_left - x_right``, of the measured pixels only; NaN where
+        unknown, and where ``fill_holes`` filled a hole (a guess from the background, not a measurement).
+        The constructor takes the matcher's map with its fills (marked by ``filled``) and keeps the fills
+        in ``filled_disparity``.
     disparity_right : (H, W) float32 or None
         Right-view disparity (pixels, integer winner-takes-all over the same sums, NaN where no
         candidate) when ``params.right_view`` is set or the "full" left-right check computed it.
@@ -74,16 +80,18 @@ class DisparityMap:
         Milliseconds per stage: "prepare" (checks + grey conversion), the matcher's stages
         ("cost", "aggregate", "select", as reported by the kernels), "postprocess", "total".
     validity : dict[str, int | None]
-        Pixel counts: "pixels" (H * W), "valid" (finite in ``disparity``), "unknown_matcher" (NaN
-        out of the matcher) = "no_candidate" (columns where no disparity of the range lands inside
+        Pixel counts: "pixels" (H * W), "valid" (known in ``filled_disparity``: measured + filled), "unknown_matcher"
+        (NaN out of the matcher) = "no_candidate" (columns where no disparity of the range lands inside
         the right image) + "failed_lr" + "failed_uniqueness" (exact counts from the kernels), "short_range"
         (border pixels set unknown because they could search less than ``border_reach`` of the range),
         "speckle_removed", "filled" (by ``fill_holes``), "border" (pixels in the image bands where the full disparity
         range does not fit, matched with the range that does) and "border_valid".
     filled : (H, W) bool or None
-        True where ``disparity`` holds a value filled in by ``fill_holes`` (a guess from the background
-        next to the hole, not a measurement); None when nothing was filled. Distances must come from
-        :attr:`measured_disparity`.
+        True where ``filled_disparity`` holds a value filled in by ``fill_holes`` (NaN in ``disparity``); None
+        when nothing was filled.
+
+    ``measured_disparity`` is an alias of ``disparity`` (the name of the measured map before it became the
+    default); ``filled_disparity`` is the dense map (``disparity`` itself when nothing was filled).
     """
 
     disparity: np.ndarray
@@ -131,21 +139,30 @@ class DisparityMap:
                                  f"{getattr(filled, 'shape', type(filled).__name__)} {getattr(filled, 'dtype', '')}")
             if np.count_nonzero(filled & np.isnan(disp)):
                 raise ValueError("`filled` marks pixels whose disparity is unknown (NaN)")
+        # Measured by default: the fills move to ``filled_disparity``, ``disparity`` keeps the measured pixels.
+        object.__setattr__(self, "_filled_disparity", disp)
+        if filled is not None and filled.any():
+            measured = disp.copy()
+            measured[filled] = np.nan
+            object.__setattr__(self, "disparity", measured)
+
+    @property
+    def filled_disparity(self) -> np.ndarray:
+        """(H, W) float32: the dense map, ``disparity`` with the holes ``fill_holes`` filled (marked in ``filled``);
+        a filled value is a guess from the background beside the hole, never a distance. ``disparity`` itself
+        when nothing was filled."""
+        return self.__dict__["_filled_disparity"]
 
     @property
     def measured_disparity(self) -> np.ndarray:
-        """(H, W) float32: ``disparity`` with the filled pixels unknown (NaN): only what was measured."""
-        if self.filled is None or not self.filled.any():
-            return self.disparity
-        out = self.disparity.copy()
-        out[self.filled] = np.nan
-        return out
+        """Alias of ``disparity`` (the measured pixels, NaN elsewhere), kept for code written when ``disparity``
+        was the filled map."""
+        return self.disparity
 
     @property
     def measured_fraction(self) -> float:
-        """Fraction (0..1) of pixels with a measured (not filled) disparity."""
-        n_filled = 0 if self.filled is None else int(self.filled.sum())
-        return (self.validity["valid"] - n_filled) / max(1, self.disparity.size)  # type: ignore[operator]
+        """Fraction (0..1) of pixels with a measured (not filled) disparity; the same as ``valid_fraction``."""
+        return self.valid_fraction
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -154,13 +171,14 @@ class DisparityMap:
 
     @property
     def valid_mask(self) -> np.ndarray:
-        """(H, W) bool, True where the disparity is known."""
+        """(H, W) bool, True where the disparity was measured (finite in ``disparity``)."""
         return np.isfinite(self.disparity)
 
     @property
     def valid_fraction(self) -> float:
-        """Fraction (0..1) of pixels with a known disparity."""
-        return self.validity["valid"] / max(1, self.disparity.size)  # type: ignore[operator]
+        """Fraction (0..1) of pixels with a measured disparity (filled ones do not count)."""
+        n_filled = 0 if self.filled is None else int(np.count_nonzero(self.filled))
+        return (self.validity["valid"] - n_filled) / max(1, self.disparity.size)  # type: ignore[operator]
 
 
 # --------------------------------------------------------------------------------------------------
@@ -497,7 +515,8 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
 
 def compute_disparity(left: Any, right: Any, params: SGMParams | None = None, **overrides: Any) -> DisparityMap:
     """Disparity of a rectified stereo pair by semi-global matching (default: census + x-gradient cost, 3 paths,
-    left-right check, holes filled and marked in ``DisparityMap.filled``; see ``SGMParams``).
+    left-right check, holes filled into ``DisparityMap.filled_disparity`` and marked in ``DisparityMap.filled``, while
+    ``DisparityMap.disparity`` keeps the measured pixels only; see ``SGMParams``).
 
     Parameters
     ----------
@@ -512,7 +531,8 @@ def compute_disparity(left: Any, right: Any, params: SGMParams | None = None, **
     Returns
     -------
     DisparityMap
-        ``disparity`` (H, W) float32 pixels, ``d = x_left - x_right``, NaN where unknown.
+        ``disparity`` (H, W) float32 pixels, ``d = x_left - x_right``, NaN where unknown (measured pixels only);
+        ``filled_disparity`` the dense map with the holes filled.
 
     Raises
     ------
