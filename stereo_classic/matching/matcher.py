@@ -90,7 +90,11 @@ class DisparityMap:
         True where ``filled_disparity`` holds a value filled in by ``fill_holes`` (NaN in ``disparity``); None
         when nothing was filled.
 
-    ``measured_disparity`` is an alias of ``disparity`` (the name of the measured map before it became the
+    left_gray : (H, W) uint8 or None
+        The left image as matched (grey, a copy), kept for ``confidence``; None when not given.
+
+    ``confidence`` is a per-pixel (H, W) uint8 confidence of the measured pixels (0 where ``disparity`` is NaN),
+    computed when first read. ``measured_disparity`` is an alias of ``disparity`` (the name of the measured map before it became the
     default); ``filled_disparity`` is the dense map (``disparity`` itself when nothing was filled).
     """
 
@@ -100,6 +104,7 @@ class DisparityMap:
     timings_ms: dict[str, float] = field(default_factory=dict)
     validity: dict[str, int | None] = field(default_factory=dict)
     filled: np.ndarray | None = None
+    left_gray: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         disp = self.disparity
@@ -139,6 +144,10 @@ class DisparityMap:
                                  f"{getattr(filled, 'shape', type(filled).__name__)} {getattr(filled, 'dtype', '')}")
             if np.count_nonzero(filled & np.isnan(disp)):
                 raise ValueError("`filled` marks pixels whose disparity is unknown (NaN)")
+        gray = self.left_gray
+        if gray is not None and (not isinstance(gray, np.ndarray) or gray.shape != disp.shape or gray.dtype != np.uint8):
+            raise ValueError(f"`left_gray` must be None or a uint8 array of shape {disp.shape}, got "
+                             f"{getattr(gray, 'shape', type(gray).__name__)} {getattr(gray, 'dtype', '')}")
         # Measured by default: the fills move to ``filled_disparity``, ``disparity`` keeps the measured pixels.
         object.__setattr__(self, "_filled_disparity", disp)
         if filled is not None and filled.any():
@@ -152,6 +161,21 @@ class DisparityMap:
         a filled value is a guess from the background beside the hole, never a distance. ``disparity`` itself
         when nothing was filled."""
         return self.__dict__["_filled_disparity"]
+
+    @property
+    def confidence(self) -> np.ndarray:
+        """(H, W) uint8: how far each measured disparity can be trusted, 1 (weakest) .. 255; 0 where nothing was
+        measured (unknown, or filled by ``fill_holes``). Computed on first use (about a millisecond per
+        megapixel), not while matching; see :func:`stereo_classic.matching.confidence.confidence_map`."""
+        cached = self.__dict__.get("_confidence")
+        if cached is None:
+            from stereo_classic.matching.confidence import confidence_map
+
+            cached = confidence_map(self.disparity, self.disparity_right, self.left_gray,
+                                    lr_check=self.params.lr_check)
+            cached.flags.writeable = False
+            object.__setattr__(self, "_confidence", cached)
+        return cached
 
     @property
     def measured_disparity(self) -> np.ndarray:
@@ -510,7 +534,8 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     if disparity_right is not None:
         disparity_right = np.asarray(disparity_right, dtype=np.float32)
     return DisparityMap(disparity=disparity, disparity_right=disparity_right, params=params,
-                        timings_ms=timings, validity=validity, filled=filled_mask)
+                        timings_ms=timings, validity=validity, filled=filled_mask,
+                        left_gray=np.array(gray_left, dtype=np.uint8, copy=True))  # for ``confidence``
 
 
 def compute_disparity(left: Any, right: Any, params: SGMParams | None = None, **overrides: Any) -> DisparityMap:

@@ -56,11 +56,12 @@ SAVE_KINDS: dict[str, str] = {
     "pfm": "{name}_disparity.pfm",
     "kitti": "{name}_disparity_kitti.png",
     "dense": "{name}_disparity_filled.pfm",
+    "confidence": "{name}_confidence.png",
     "ply": "{name}_points.ply",
     "json": "{name}_objects.json",
 }
-#: Kinds written only when named: the point cloud, and the filled (dense, partly guessed) disparity.
-ON_REQUEST: frozenset[str] = frozenset({"ply", "dense"})
+#: Kinds written only when named: the point cloud, the filled (dense, partly guessed) disparity, the confidence.
+ON_REQUEST: frozenset[str] = frozenset({"ply", "dense", "confidence"})
 #: What ``run`` saves by default: every kind but those of :data:`ON_REQUEST`. The disparity files hold measured
 #: pixels only (NaN / 0 where unknown); the filled map is ``dense``'s ``NAME_disparity_filled.pfm``.
 DEFAULT_SAVE: tuple[str, ...] = tuple(k for k in SAVE_KINDS if k not in ON_REQUEST)
@@ -321,6 +322,9 @@ class FrameWriter:
         if "dense" in save:  # asked for by name: the holes filled from the background (guesses, not measurements)
             filled = result.disparity.filled_disparity
             yield self._path("dense", name), lambda p: io.write_pfm(p, filled)
+        if "confidence" in save:  # 8-bit grey, DisparityMap.confidence: 0 unknown or filled, 1..255 measured
+            conf = result.disparity.confidence
+            yield self._path("confidence", name), lambda p: io.write_image(p, conf)
         if "kitti" in save:
             # The KITTI PNG holds 0..255.996 px; anything else is stored as unknown (0), and said so.
             outside = np.isfinite(disp) & ((disp < 0) | (disp > 65535 / 256))

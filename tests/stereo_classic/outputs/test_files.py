@@ -70,7 +70,10 @@ def test_disparity_files_hold_measured_pixels_only_and_the_filled_map_only_when_
     raw = cv2.imread(str(tmp_path / "f_disparity_kitti.png"), cv2.IMREAD_UNCHANGED)
     assert raw.dtype == np.uint16 and (raw[unknown] == 0).all()
     dense = tmp_path / "dense"
-    FrameWriter(dense, save=("pfm", "dense")).write("f", result, rig, {"frame": "f"})
+    FrameWriter(dense, save=("pfm", "dense", "confidence")).write("f", result, rig, {"frame": "f"})
+    conf = cv2.imread(str(dense / "f_confidence.png"), cv2.IMREAD_UNCHANGED)
+    np.testing.assert_array_equal(conf, dmap.confidence)
+    assert (conf[unknown] == 0).all() and (conf[~unknown] > 0).all()
     filled = io.read_pfm(dense / "f_disparity_filled.pfm")
     np.testing.assert_array_equal(filled, dmap.filled_disparity)
     assert np.isfinite(filled[dmap.filled]).all()
@@ -120,7 +123,7 @@ def test_write_all_or_nothing_keeps_nothing_of_a_failed_group(tmp_path):
 def test_bad_save_kind_names_the_parameter(tmp_path):
     with pytest.raises(ValueError, match="`save`.*'png'"):
         FrameWriter(tmp_path, save=("png",))
-    assert set(DEFAULT_SAVE) == set(SAVE_KINDS) - {"ply", "dense"}  # the filled map only when named
+    assert set(DEFAULT_SAVE) == set(SAVE_KINDS) - {"ply", "dense", "confidence"}  # only when named
 
 
 def test_record_is_json_without_nan_and_labels_say_unknown(frame):
