@@ -39,6 +39,7 @@ import numpy as np
 
 from calib.geometry import points_from_pixels
 from stereo_classic.fusion.boxes import boxes_and_meta, shrunk_pixel_box
+from stereo_classic.fusion.contact import AGREEMENT_SIGMAS, GROUND_CLASSES, disparity_sigma, ground_contact
 from stereo_classic.fusion.objects import LocalizedObjects
 from stereo_classic.fusion.params import FusionInputError, FusionParams, as_generator
 from stereo_classic.fusion.ransac import sequential_clusters
@@ -115,6 +116,7 @@ def localize(
     ratio = np.full(n, np.nan)
     spread = np.full(n, np.nan)
     nearest = np.full(n, np.nan)
+    sigma_m = np.full(n, np.nan)
     occluded = np.zeros(n, dtype=bool)
     status: list[str] = []
     near, far = params.depth_range
@@ -139,6 +141,14 @@ def localize(
             # than those in front, so the mean sits behind the surface (KITTI's 21 m car: +3.5 % against the
             # median of the LiDAR points in its labelled box, the median +2.5 %)
             centroid = np.array([np.median(x), np.median(y), np.median(z)])
+            if params.ground_contact and labels[i] in GROUND_CLASSES:
+                mask = _check_contact(disp, xyxy[i], depths, mask, centroid[2], params, gen, pinhole)
+                if mask is None:
+                    status.append("estimates_disagree")
+                    occluded[i] = False
+                    continue
+                x, y, z = _points(depths, mask, pinhole)
+                centroid = np.array([np.median(x), np.median(y), np.median(z)])
         else:
             med = float(np.median(depths.d))
             mask = np.abs(depths.d - med) <= params.tolerance_px
@@ -155,11 +165,13 @@ def localize(
         ratio[i] = inliers[i] / depths.d.size
         spread[i] = float(z.std())
         nearest[i] = float(np.percentile(z, NEAREST_PERCENTILE))
+        sigma_m[i] = centroid[2] ** 2 / (pinhole.focal_px * pinhole.baseline_m) * disparity_sigma(depths.d[mask])
 
     return LocalizedObjects(
         labels=labels, class_id=class_id, confidence=confidence, xyxy=xyxy.astype(np.float32),
         distance_m=distance, xyz=xyz, inliers=inliers, valid_pixels=valid_pixels, inlier_ratio=ratio,
         spread_m=spread, status=tuple(status), method=params.method, occluded=occluded, nearest_m=nearest,
+        distance_sigma_m=sigma_m,
     )
 
 
@@ -307,6 +319,33 @@ def _ransac_members(depths: _BoxDepths, params: FusionParams, gen: np.random.Gen
     if int(mask.sum()) < params.min_pixels:
         return None, False
     return mask, occluder
+
+
+def _check_contact(disp: np.ndarray, box: np.ndarray, depths: _BoxDepths, mask: np.ndarray, z: float,
+                   params: FusionParams, gen: np.random.Generator, pinhole: _Pinhole) -> np.ndarray | None:
+    """The members that give the distance once the ground contact is heard: ``mask`` where there is no contact
+    estimate or it agrees (within ``AGREEMENT_SIGMAS`` combined standard uncertainties); else the heaviest
+    consistent set among the box's values within ``AGREEMENT_SIGMAS`` of the contact's disparity, None when
+    there is none of ``min_pixels`` (the estimates disagree)."""
+    contact = ground_contact(disp, box, params.min_pixels)
+    if contact is None:
+        return mask
+    alpha, sigma_alpha = contact
+    d_set = pinhole.focal_px * pinhole.baseline_m / z - pinhole.doffs
+    if abs(d_set - alpha) <= AGREEMENT_SIGMAS * math.hypot(disparity_sigma(depths.d[mask]), sigma_alpha):
+        return mask
+    near_contact = np.flatnonzero(np.abs(depths.d - alpha) <= AGREEMENT_SIGMAS * sigma_alpha)
+    if near_contact.size < params.min_pixels:
+        return None
+    flat = depths.flat[near_contact]
+    weights = _vote_weights(flat, depths.width, depths.height, params.centre_sigma)
+    clusters = sequential_clusters(depths.d[near_contact], weights, params.tolerance_px, params.grow_density, 1,
+                                   params.max_iterations, gen, params.min_pixels)
+    if not clusters or int(clusters[0].mask.sum()) < params.min_pixels:
+        return None
+    out = np.zeros(depths.d.size, bool)
+    out[near_contact[clusters[0].mask]] = True
+    return out
 
 
 def _offset(flat: np.ndarray, width: int, height: int) -> float:
