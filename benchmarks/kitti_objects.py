@@ -165,7 +165,7 @@ def _check_methods(methods: Sequence[str]) -> tuple[str, ...]:
 
 def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Sequence[str] = DEFAULT_METHODS,
                            threads: int = 1, model: str = "yolox_nano", label_types: Sequence[str] = ("Car",),
-                           seed: int = 0, num_disparities: int | None = None) -> dict[str, Any]:
+                           seed: int = 0, num_disparities: int | None = None, fusion: Any = None) -> dict[str, Any]:
     """Per labelled object of a KITTI frame: the LiDAR reference and each method's distance and error.
 
     Parameters
@@ -186,6 +186,8 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
     num_disparities : int or None
         Disparity range of both matchers; None: ``run``'s for a pair (``CLI_NUM_DISPARITIES``, 128). Every other
         matcher setting is ``SGMParams()``'s default.
+    fusion : FusionParams or None
+        The fusion's settings (None: ``FusionParams()``, ``run``'s).
 
     Returns
     -------
@@ -230,7 +232,7 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
 
     params = SGMParams(num_disparities=CLI_NUM_DISPARITIES if num_disparities is None else num_disparities,
                        threads=threads)
-    fusion = FusionParams()
+    fusion = FusionParams() if fusion is None else fusion
     model_path = resolve_model(model)
     detector = OnnxDetector(model_path, conf_threshold=0.3, iou_threshold=0.45, threads=threads)
     with Localizer(rig, detector, params, fusion=fusion, seed=seed) as loc:
@@ -275,7 +277,8 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
                 if name in fused:
                     objs = fused[name]
                     d = _num(objs.distance_m[di])
-                    entry: dict[str, Any] = {"distance_m": d, "status": str(objs.status[di]), "error_pct": _pct(d, ref)}
+                    entry: dict[str, Any] = {"distance_m": d, "status": str(objs.status[di]), "error_pct": _pct(d, ref),
+                                             "distance_sigma_m": _num(objs.distance_sigma_m[di])}
                     near = _num(objs.nearest_m[di]) if objs.status[di] == "ok" else None
                     entry["nearest_m"] = near
                     entry["nearest_error_pct"] = _pct(near, ref10)

@@ -141,14 +141,11 @@ def localize(
             # than those in front, so the mean sits behind the surface (KITTI's 21 m car: +3.5 % against the
             # median of the LiDAR points in its labelled box, the median +2.5 %)
             centroid = np.array([np.median(x), np.median(y), np.median(z)])
-            if params.ground_contact and labels[i] in GROUND_CLASSES:
-                mask = _check_contact(disp, xyxy[i], depths, mask, centroid[2], params, gen, pinhole)
-                if mask is None:
-                    status.append("estimates_disagree")
-                    occluded[i] = False
-                    continue
-                x, y, z = _points(depths, mask, pinhole)
-                centroid = np.array([np.median(x), np.median(y), np.median(z)])
+            if params.ground_contact and labels[i] in GROUND_CLASSES and not _contact_agrees(
+                    disp, xyxy[i], depths.d[mask], float(centroid[2]), params, pinhole):
+                status.append("estimates_disagree")  # which one is right cannot be told: neither is reported
+                occluded[i] = False
+                continue
         else:
             med = float(np.median(depths.d))
             mask = np.abs(depths.d - med) <= params.tolerance_px
@@ -321,31 +318,17 @@ def _ransac_members(depths: _BoxDepths, params: FusionParams, gen: np.random.Gen
     return mask, occluder
 
 
-def _check_contact(disp: np.ndarray, box: np.ndarray, depths: _BoxDepths, mask: np.ndarray, z: float,
-                   params: FusionParams, gen: np.random.Generator, pinhole: _Pinhole) -> np.ndarray | None:
-    """The members that give the distance once the ground contact is heard: ``mask`` where there is no contact
-    estimate or it agrees (within ``AGREEMENT_SIGMAS`` combined standard uncertainties); else the heaviest
-    consistent set among the box's values within ``AGREEMENT_SIGMAS`` of the contact's disparity, None when
-    there is none of ``min_pixels`` (the estimates disagree)."""
+def _contact_agrees(disp: np.ndarray, box: np.ndarray, values: np.ndarray, z: float, params: FusionParams,
+                    pinhole: _Pinhole) -> bool:
+    """Whether the distance ``z`` of the set of disparity ``values`` agrees with the box's ground contact
+    (:func:`~stereo_classic.fusion.contact.ground_contact`) within ``AGREEMENT_SIGMAS`` combined standard
+    uncertainties; True where there is no contact estimate."""
     contact = ground_contact(disp, box, params.min_pixels)
     if contact is None:
-        return mask
+        return True
     alpha, sigma_alpha = contact
     d_set = pinhole.focal_px * pinhole.baseline_m / z - pinhole.doffs
-    if abs(d_set - alpha) <= AGREEMENT_SIGMAS * math.hypot(disparity_sigma(depths.d[mask]), sigma_alpha):
-        return mask
-    near_contact = np.flatnonzero(np.abs(depths.d - alpha) <= AGREEMENT_SIGMAS * sigma_alpha)
-    if near_contact.size < params.min_pixels:
-        return None
-    flat = depths.flat[near_contact]
-    weights = _vote_weights(flat, depths.width, depths.height, params.centre_sigma)
-    clusters = sequential_clusters(depths.d[near_contact], weights, params.tolerance_px, params.grow_density, 1,
-                                   params.max_iterations, gen, params.min_pixels)
-    if not clusters or int(clusters[0].mask.sum()) < params.min_pixels:
-        return None
-    out = np.zeros(depths.d.size, bool)
-    out[near_contact[clusters[0].mask]] = True
-    return out
+    return abs(d_set - alpha) <= AGREEMENT_SIGMAS * math.hypot(disparity_sigma(values), sigma_alpha)
 
 
 def _offset(flat: np.ndarray, width: int, height: int) -> float:

@@ -137,9 +137,9 @@ class FusionParams:
     ground_contact : bool
         For objects that stand on the ground (``GROUND_CLASSES``: persons, cars, ...), a second, independent
         estimate from where the box's bottom meets the road (the road's disparity just below the box, extrapolated
-        to the box's bottom row). Where it and the consistent set differ by more than three standard
-        uncertainties, the set at the contact's distance is taken when the box has one, else the status is
-        "estimates_disagree" (no distance). False: the consistent set alone.
+        to the box's bottom row). Where it and the consistent set differ by more than three combined standard
+        uncertainties the status is "estimates_disagree" (no distance: which one is right cannot be told).
+        False: the consistent set alone.
 
     Raises
     ------
