@@ -15,8 +15,6 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Mapping
-from dataclasses import dataclass, field
 from typing import Any
 
 import cv2
@@ -25,6 +23,7 @@ import numpy as np
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching.params import SGMParams
 from stereo_classic.matching.postprocess import _speckle_and_fill, fill_bytes, speckle_bytes, speckle_fill_bytes
+from stereo_classic.matching.result import DisparityMap
 
 __all__ = [
     "compute_disparity",
@@ -52,157 +51,6 @@ class StereoInputError(ValueError):
 
 class MemoryBudgetError(ValueError):
     """The estimated working memory exceeds the limit; raised before anything large is allocated."""
-
-
-# --------------------------------------------------------------------------------------------------
-# result object
-# --------------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class DisparityMap:
-    """A disparity map with the parameters that made it, per-stage timings and a validity summary.
-
-    Measured by default, filled by name: ``disparity`` holds only what was measured (NaN where unknown,
-    also where ``fill_holes`` put a value); the dense map with the holes filled is ``filled_disparity``.
-
-    Attributes
-    ----------
-    disparity : (H, W) float32
-        Left-view disparity in pixels, ``d = x_left - x_right``, of the measured pixels only; NaN where
-        unknown, and where ``fill_holes`` filled a hole (a guess from the background, not a measurement).
-        The constructor takes the matcher's map with its fills (marked by ``filled``) and keeps the fills
-        in ``filled_disparity``.
-    disparity_right : (H, W) float32 or None
-        Right-view disparity (pixels, integer winner-takes-all over the same sums, NaN where no
-        candidate) when ``params.right_view`` is set or the "full" left-right check computed it.
-    params : SGMParams
-        The parameters used.
-    timings_ms : dict[str, float]
-        Milliseconds per stage: "prepare" (checks + grey conversion), the matcher's stages
-        ("cost", "aggregate", "select", as reported by the kernels), "postprocess", "total".
-    validity : dict[str, int | None]
-        Pixel counts: "pixels" (H * W), "valid" (known in ``filled_disparity``: measured + filled), "unknown_matcher"
-        (NaN out of the matcher) = "no_candidate" (columns where no disparity of the range lands inside
-        the right image) + "failed_lr" + "failed_uniqueness" (exact counts from the kernels), "short_range"
-        (border pixels set unknown because they could search less than ``border_reach`` of the range),
-        "speckle_removed", "filled" (by ``fill_holes``), "border" (pixels in the image bands where the full disparity
-        range does not fit, matched with the range that does) and "border_valid".
-    filled : (H, W) bool or None
-        True where ``filled_disparity`` holds a value filled in by ``fill_holes`` (NaN in ``disparity``); None
-        when nothing was filled.
-
-    left_gray : (H, W) uint8 or None
-        The left image as matched (grey, a copy), kept for ``confidence``; None when not given.
-
-    ``confidence`` is a per-pixel (H, W) uint8 confidence of the measured pixels (0 where ``disparity`` is NaN),
-    computed when first read. ``measured_disparity`` is an alias of ``disparity`` (the name of the measured map before it became the
-    default); ``filled_disparity`` is the dense map (``disparity`` itself when nothing was filled).
-    """
-
-    disparity: np.ndarray
-    disparity_right: np.ndarray | None
-    params: SGMParams
-    timings_ms: dict[str, float] = field(default_factory=dict)
-    validity: dict[str, int | None] = field(default_factory=dict)
-    filled: np.ndarray | None = None
-    left_gray: np.ndarray | None = None
-
-    def __post_init__(self) -> None:
-        disp = self.disparity
-        if not isinstance(disp, np.ndarray) or disp.ndim != 2 or disp.dtype != np.float32:
-            raise ValueError(f"`disparity` must be a (H, W) float32 array, got "
-                             f"{type(disp).__name__} {getattr(disp, 'shape', None)} {getattr(disp, 'dtype', None)}")
-        if np.isinf(disp).any():
-            raise ValueError("`disparity` must hold finite values or NaN (unknown), got inf")
-        right = self.disparity_right
-        if right is not None and (not isinstance(right, np.ndarray) or right.shape != disp.shape
-                                  or right.dtype != np.float32):
-            raise ValueError(f"`disparity_right` must be None or a float32 array of shape {disp.shape}, got "
-                             f"{getattr(right, 'shape', type(right).__name__)} {getattr(right, 'dtype', '')}")
-        if not isinstance(self.params, SGMParams):
-            raise ValueError(f"`params` must be an SGMParams, got {type(self.params).__name__}")
-        if not isinstance(self.timings_ms, Mapping) or not all(
-                isinstance(k, str) and isinstance(v, (int, float)) and math.isfinite(v) and v >= 0
-                for k, v in self.timings_ms.items()):
-            raise ValueError(f"`timings_ms` must map stage names to non-negative milliseconds, got {self.timings_ms!r}")
-        object.__setattr__(self, "timings_ms", {k: float(v) for k, v in self.timings_ms.items()})
-        if not isinstance(self.validity, Mapping) or not all(
-                isinstance(k, str) and (v is None or (isinstance(v, (int, np.integer)) and v >= 0))
-                for k, v in self.validity.items()):
-            raise ValueError(f"`validity` must map names to non-negative pixel counts or None, got {self.validity!r}")
-        validity = {k: (None if v is None else int(v)) for k, v in self.validity.items()}
-        n_valid = int(np.count_nonzero(np.isfinite(disp)))
-        if validity.get("valid", n_valid) != n_valid or validity.get("pixels", disp.size) != disp.size:
-            raise ValueError(f"`validity` does not describe `disparity`: it says {validity.get('valid')} valid of "
-                             f"{validity.get('pixels')}, the map has {n_valid} of {disp.size}")
-        validity["valid"] = n_valid
-        validity["pixels"] = int(disp.size)
-        object.__setattr__(self, "validity", validity)
-        filled = self.filled
-        if filled is not None:
-            if not isinstance(filled, np.ndarray) or filled.shape != disp.shape or filled.dtype != np.bool_:
-                raise ValueError(f"`filled` must be None or a bool array of shape {disp.shape}, got "
-                                 f"{getattr(filled, 'shape', type(filled).__name__)} {getattr(filled, 'dtype', '')}")
-            if np.count_nonzero(filled & np.isnan(disp)):
-                raise ValueError("`filled` marks pixels whose disparity is unknown (NaN)")
-        gray = self.left_gray
-        if gray is not None and (not isinstance(gray, np.ndarray) or gray.shape != disp.shape or gray.dtype != np.uint8):
-            raise ValueError(f"`left_gray` must be None or a uint8 array of shape {disp.shape}, got "
-                             f"{getattr(gray, 'shape', type(gray).__name__)} {getattr(gray, 'dtype', '')}")
-        # Measured by default: the fills move to ``filled_disparity``, ``disparity`` keeps the measured pixels.
-        object.__setattr__(self, "_filled_disparity", disp)
-        if filled is not None and filled.any():
-            measured = disp.copy()
-            measured[filled] = np.nan
-            object.__setattr__(self, "disparity", measured)
-
-    @property
-    def filled_disparity(self) -> np.ndarray:
-        """(H, W) float32: the dense map, ``disparity`` with the holes ``fill_holes`` filled (marked in ``filled``);
-        a filled value is a guess from the background beside the hole, never a distance. ``disparity`` itself
-        when nothing was filled."""
-        return self.__dict__["_filled_disparity"]
-
-    @property
-    def confidence(self) -> np.ndarray:
-        """(H, W) uint8: how far each measured disparity can be trusted, 1 (weakest) .. 255; 0 where nothing was
-        measured (unknown, or filled by ``fill_holes``). Computed on first use (about a millisecond per
-        megapixel), not while matching; see :func:`stereo_classic.matching.confidence.confidence_map`."""
-        cached = self.__dict__.get("_confidence")
-        if cached is None:
-            from stereo_classic.matching.confidence import confidence_map
-
-            cached = confidence_map(self.disparity, self.disparity_right, self.left_gray,
-                                    lr_check=self.params.lr_check)
-            cached.flags.writeable = False
-            object.__setattr__(self, "_confidence", cached)
-        return cached
-
-    @property
-    def measured_disparity(self) -> np.ndarray:
-        """Alias of ``disparity`` (the measured pixels, NaN elsewhere), kept for code written when ``disparity``
-        was the filled map."""
-        return self.disparity
-
-    @property
-    def measured_fraction(self) -> float:
-        """Fraction (0..1) of pixels with a measured (not filled) disparity; the same as ``valid_fraction``."""
-        return self.valid_fraction
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        """(H, W) of the map."""
-        return self.disparity.shape  # type: ignore[return-value]
-
-    @property
-    def valid_mask(self) -> np.ndarray:
-        """(H, W) bool, True where the disparity was measured (finite in ``disparity``)."""
-        return np.isfinite(self.disparity)
-
-    @property
-    def valid_fraction(self) -> float:
-        """Fraction (0..1) of pixels with a measured disparity (filled ones do not count)."""
-        n_filled = 0 if self.filled is None else int(np.count_nonzero(self.filled))
-        return (self.validity["valid"] - n_filled) / max(1, self.disparity.size)  # type: ignore[operator]
 
 
 # --------------------------------------------------------------------------------------------------
