@@ -46,6 +46,12 @@ from stereo_classic.fusion.ransac import sequential_clusters
 
 __all__ = ["NEAREST_PERCENTILE", "localize"]
 
+#: A set "reaches the box's bottom" when this percentile of its pixels' rows lies in the box's lowest quarter (of the
+#: shrunk box: the object's foot, the wheels or the legs are there; the 90th percentile, so that a few stray pixels
+#: of the background below the object do not count).
+BOTTOM_PERCENTILE = 90.0
+BOTTOM_REACH = 0.75
+
 #: The nearest surface of an object (``LocalizedObjects.nearest_m``): this percentile of its inliers' depth.
 #: Not the minimum, which one wrong pixel decides.
 NEAREST_PERCENTILE = 10.0
@@ -131,7 +137,8 @@ def localize(
             status.append("out_of_range")
             continue
         if params.method == "ransac":
-            mask, occluded[i] = _ransac_members(depths, params, gen, pinhole.doffs)
+            grounded = params.ground_contact and labels[i] in GROUND_CLASSES
+            mask, occluded[i] = _ransac_members(depths, params, gen, pinhole.doffs, grounded)
             if mask is None:
                 status.append("no_consensus")
                 continue
@@ -286,7 +293,7 @@ def _vote_weights(flat: np.ndarray, width: int, height: int, centre_sigma: float
 
 
 def _ransac_members(depths: _BoxDepths, params: FusionParams, gen: np.random.Generator,
-                    doffs: float = 0.0) -> tuple[np.ndarray | None, bool]:
+                    doffs: float = 0.0, grounded: bool = False) -> tuple[np.ndarray | None, bool]:
     """(k,) bool: the members of the chosen consistent set (None when there is no consensus), and whether a
     nearer set was passed over as an occluder.
 
@@ -312,6 +319,8 @@ def _ransac_members(depths: _BoxDepths, params: FusionParams, gen: np.random.Gen
         chosen, heaviest, flat[pick] if sampled else flat, depths.width, depths.height, params, doffs)
     if occluder:
         chosen = heaviest
+    if grounded:  # an object on the ground reaches the box's bottom; a set that stays above it is what lies behind
+        chosen = _standing_set(chosen, clusters, flat[pick] if sampled else flat, depths.width, depths.height, params)
     mask = ((d >= chosen.low) & (d <= chosen.high)) if sampled else chosen.mask
     if int(mask.sum()) < params.min_pixels:
         return None, False
@@ -329,6 +338,23 @@ def _contact_agrees(disp: np.ndarray, box: np.ndarray, values: np.ndarray, z: fl
     alpha, sigma_alpha = contact
     d_set = pinhole.focal_px * pinhole.baseline_m / z - pinhole.doffs
     return abs(d_set - alpha) <= AGREEMENT_SIGMAS * math.hypot(disparity_sigma(values), sigma_alpha)
+
+
+def _standing_set(chosen: Any, clusters: list, flat: np.ndarray, width: int, height: int,
+                  params: FusionParams) -> Any:
+    """``chosen``, unless its pixels stay in the upper part of the box (their ``BOTTOM_PERCENTILE``-th percentile row
+    above ``BOTTOM_REACH`` of the shrunk box's height) while a nearer set reaches the bottom, centred across the box
+    (an occluder enters from a side, ``occluder_offset``): then the heaviest such set. A person or a vehicle stands
+    on the ground at its box's bottom edge; what is seen only above it (trees, buildings behind a box placed too
+    high) is the background, however many pixels it has."""
+    def reaches(c: Any) -> bool:
+        return float(np.percentile(flat[c.mask] // width, BOTTOM_PERCENTILE)) >= BOTTOM_REACH * height - 1
+
+    if reaches(chosen):
+        return chosen
+    standing = [c for c in clusters if c.centre > chosen.centre and reaches(c)
+                and abs(float(((flat[c.mask] % width + 0.5) / width - 0.5).mean())) < params.occluder_offset]
+    return max(standing, key=lambda c: c.support) if standing else chosen
 
 
 def _offset(flat: np.ndarray, width: int, height: int) -> float:

@@ -78,3 +78,18 @@ def test_distance_far_behind_the_contact_is_reported_as_a_disagreement():
     assert np.isnan(objs.distance_sigma_m[0]) and objs.to_json()[0]["distance_m"] is None
     assert localize(_dets(box), disp, rig, rng=0, ground_contact=False).status == ("ok",)  # before: ok
     assert localize(_dets(box, "chair"), disp, rig, rng=0).status == ("ok",)  # not a ground class: no check
+
+
+def test_a_box_placed_too_high_reads_the_object_not_what_lies_behind_it():
+    """Issue 31's failure: the box's upper part holds the background (more pixels than the object), the object
+    stands in its lower part. A person or vehicle reaches the box's bottom; the background set does not."""
+    rig = make_rig(W, H, focal_px=1000.0, baseline_m=0.5)
+    disp = np.full((H, W), 8.0, np.float32)  # trees 62.5 m away
+    disp[118:150, 110:190] = 14.0  # the car, 35.7 m, only in the lower 40 % of its box
+    box = (110, 70, 190, 150)
+    assert localize(_dets(box, "potted plant"), disp, rig, rng=0).distance_m[0] == pytest.approx(62.5, rel=1e-3)
+    assert localize(_dets(box), disp, rig, rng=0, ground_contact=False).distance_m[0] == pytest.approx(62.5, rel=1e-3)
+    objs = localize(_dets(box), disp, rig, rng=0)
+    assert objs.status == ("ok",) and objs.distance_m[0] == pytest.approx(500.0 / 14.0, rel=1e-3)
+    disp[118:150, 110:150] = 8.0  # the nearer set only on the box's left side: an occluder's place, not taken
+    assert localize(_dets(box), disp, rig, rng=0).distance_m[0] == pytest.approx(62.5, rel=1e-3)
