@@ -139,7 +139,9 @@ class FusionParams:
         estimate from where the box's bottom meets the road (the road's disparity just below the box, extrapolated
         to the box's bottom row). Where it and the consistent set differ by more than three combined standard
         uncertainties the status is "estimates_disagree" (no distance: which one is right cannot be told).
-        False: the consistent set alone.
+        Also, such an object reaches its box's bottom: a chosen set that stays in the box's upper three quarters
+        gives way to a nearer set, centred across the box, that reaches the bottom (the background behind a box
+        placed too high is not the object). False: the consistent set alone, as before issue 31.
 
     Raises
     ------
