@@ -6,8 +6,8 @@
 >>> right = rng.integers(0, 256, (40, 80), dtype=np.uint8)
 >>> left = np.roll(right, 6, axis=1)                  # every pixel moved 6 px: d = x_left - x_right = 6
 >>> dmap = compute_disparity(left, right, num_disparities=16, subpixel=False)
->>> float(np.nanmedian(dmap.disparity)), round(dmap.valid_fraction, 2)
-(6.0, 1.0)
+>>> float(np.nanmedian(dmap.disparity)), round(dmap.valid_fraction, 2)   # measured: not the left border's
+(6.0, 0.91)
 """
 
 from __future__ import annotations
