@@ -119,7 +119,8 @@ def _kitti(data_dir: Any, fusions: dict[str, Any]) -> list[dict[str, Any]]:
             rows.append({"set": "kitti", "frame": res["frame"], "label": f"car {o['label_index']}",
                          "reference_m": ref, "distance_m": d if ok else None, "sigma_m": sigma if ok else None,
                          "status": m["status"], "error_pct": err, "fusion": name,
-                         "covered": None if err is None or sigma is None else bool(abs(d - ref) <= COVER_SIGMAS * sigma)})
+                         "covered": None if err is None or sigma is None
+                         else bool(abs(d - ref) <= COVER_SIGMAS * sigma)})
     return rows
 
 
@@ -162,7 +163,8 @@ def _f(v: Any, spec: str = ".1f") -> str:
 
 
 def render_markdown(rows: Sequence[dict[str, Any]]) -> str:
-    lines = ["| set | fusion | objects | with distance | median % | p90 % | within 5 % | covered by 3 sigma % | ok beyond 3 sigma | other statuses |",
+    lines = ["| set | fusion | objects | with distance | median % | p90 % | within 5 % | covered by 3 sigma % | "
+             "ok beyond 3 sigma | other statuses |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     sets = list(dict.fromkeys(r["set"] for r in rows)) + ["all"]
     for s in sets:

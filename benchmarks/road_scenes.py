@@ -2,15 +2,16 @@
 
 The DrivingStereo rig (881x400, f = 1003.556 px, B = 0.5446 m, the camera 1.65 m above the road, level). Every
 surface is an axis-aligned box with a texture fixed to its faces, ray-cast from both cameras (2x2 samples per
-pixel), so both images show the same surface points: exact geometry and occlusions. A car is not one block: a
-body (0.3-1.0 m), a cabin set 0.8 m back (1.0-1.45 m: pillars and roof around windows that show what lies beyond,
-as glass shows what is behind it or what it reflects, both far), four wheels; the road under it, the background
-beside the cabin and through its windows show inside its box, as on a real car; its paint has a fifth of the road's texture contrast. A person:
-two legs, a torso, a head, the road between the legs. Around them: other traffic, a far row of buildings.
+pixel), so both images show the same surface points: exact geometry and occlusions. A car is not one block: a body
+(0.3-1.0 m), a cabin set 0.8 m back (1.0-1.45 m: pillars and roof around windows that show what lies beyond, as
+glass shows what is behind it or what it reflects, both far), four wheels; the road under it, the background beside
+the cabin and through its windows show inside its box, as on a real car; its paint has a fifth of the road's texture
+contrast. A person: two legs, a torso, a head, the road between the legs. Around them: other traffic, a far row of
+buildings.
 
 The reference distance of an object is the median depth (Z) of the left-image pixels whose ray hits it: what the
-LiDAR median of the points in its 3D box gives on the real frames. Its box is the bounding box of those pixels
-grown by 10 % on each side (a detector's box is looser than the object).
+LiDAR median of the points in its 3D box gives on the real frames. Its box is the bounding box of those pixels grown
+by 10 % on each side (a detector's box is looser than the object).
 """
 
 from __future__ import annotations
@@ -53,8 +54,8 @@ class RoadObject:
 
 @dataclass(frozen=True)
 class RoadScene:
-    """Left and right (H, W, 3) uint8 BGR images, the rig, the objects' labels, boxes (N, 4) x0 y0 x1 y1 (the object's pixels grown by a margin, as a detector's) and
-    reference distances (N,) metres, and ``name``."""
+    """Left and right (H, W, 3) uint8 BGR images, the rig, the objects' labels, boxes (N, 4) x0 y0 x1 y1 (the object's
+    pixels grown by a margin, as a detector's) and reference distances (N,) metres, and ``name``."""
 
     name: str
     left: np.ndarray
@@ -84,7 +85,8 @@ def person(x: float, z: float, seed: int, *, tone: float = 90.0, contrast: float
     """A person 1.75 m tall, 0.5 m wide, 0.3 m deep, ``z`` metres ahead, centred at ``x``."""
     cloth = {"tone": tone, "contrast": contrast, "seed": seed, "px_per_m": 40.0}
     return RoadObject("person", (
-        Part(x - 0.2, x - 0.05, 0.0, 0.85, z, z + 0.3, **cloth), Part(x + 0.05, x + 0.2, 0.0, 0.85, z, z + 0.3, **cloth),
+        Part(x - 0.2, x - 0.05, 0.0, 0.85, z, z + 0.3, **cloth),
+        Part(x + 0.05, x + 0.2, 0.0, 0.85, z, z + 0.3, **cloth),
         Part(x - 0.25, x + 0.25, 0.85, 1.5, z, z + 0.3, **{**cloth, "tone": tone * 1.4}),
         Part(x - 0.1, x + 0.1, 1.5, 1.75, z + 0.05, z + 0.25, **{**cloth, "tone": 150.0})))
 
@@ -132,8 +134,10 @@ def _cast(parts: list[tuple[int, Part]], origin: np.ndarray, dirs: np.ndarray, g
             xs, ys, zs = (lo[0], hi[0]), (lo[1], hi[1]), (lo[2], hi[2])
             us = [centre[0] + f * x / z for x in xs for z in zs]
             vs = [centre[1] - f * y / z for y in ys for z in zs]
-            c0, c1 = max(0, int(math.floor((min(us) + 0.5) * s)) - 1), min(cols, int(math.ceil((max(us) + 0.5) * s)) + 1)
-            r0, r1 = max(0, int(math.floor((min(vs) + 0.5) * s)) - 1), min(rows, int(math.ceil((max(vs) + 0.5) * s)) + 1)
+            c0 = max(0, int(math.floor((min(us) + 0.5) * s)) - 1)
+            c1 = min(cols, int(math.ceil((max(us) + 0.5) * s)) + 1)
+            r0 = max(0, int(math.floor((min(vs) + 0.5) * s)) - 1)
+            r1 = min(rows, int(math.ceil((max(vs) + 0.5) * s)) + 1)
             if c1 <= c0 or r1 <= r0:
                 continue
             idx_all = (np.arange(r0, r1)[:, None] * cols + np.arange(c0, c1)[None, :]).ravel()
