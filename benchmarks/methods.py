@@ -8,7 +8,8 @@ unknown, so the metrics count every method's invalid border the same way.
 A method whose output holds values it did not measure (this project's matcher fills its holes,
 ``SGMParams.fill_holes``, marked in ``DisparityMap.filled``) returns both: the output (scored in the
 dense and unknown-is-bad views) and the measured pixels only (scored in the valid view), as a
-``DisparityMap`` or a ``(output, measured)`` tuple; :func:`output_views` reads either.
+``DisparityMap`` (``filled_disparity`` and ``disparity``) or a ``(output, measured)`` tuple; :func:`output_views`
+reads either.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ __all__ = [
 ]
 
 #: A prepared method: ``runner(left, right) -> (H, W) float32 disparity, NaN unknown`` (used for every view),
-#: or an object with ``disparity`` and ``measured_disparity`` (a ``DisparityMap``) or an ``(output, measured)``
+#: or an object with ``filled_disparity`` and ``disparity`` (a ``DisparityMap``) or an ``(output, measured)``
 #: tuple when the output holds filled pixels (see :func:`output_views`).
 Runner = Callable[[np.ndarray, np.ndarray], Any]
 
@@ -111,7 +112,8 @@ def output_views(out: Any, shape: tuple[int, int] | None = None) -> tuple[np.nda
 
     Parameters
     ----------
-    out : (H, W) float array, ``(output, measured)`` tuple, or object with ``disparity`` and ``measured_disparity``
+    out : (H, W) float array, ``(output, measured)`` tuple, or object with ``filled_disparity`` (the output) and
+        ``disparity`` (the measured pixels), as a ``DisparityMap``
     shape : (H, W), optional
         The shape both must have (the input's).
 
@@ -131,8 +133,8 @@ def output_views(out: Any, shape: tuple[int, int] | None = None) -> tuple[np.nda
         disp, measured = out, out
     elif isinstance(out, tuple) and len(out) == 2:
         disp, measured = out
-    elif hasattr(out, "disparity") and hasattr(out, "measured_disparity"):
-        disp, measured = out.disparity, out.measured_disparity
+    elif hasattr(out, "disparity") and hasattr(out, "filled_disparity"):
+        disp, measured = out.filled_disparity, out.disparity  # the dense view needs the filled map
     else:
         raise RuntimeError(f"a method must return an (H, W) float array, an (output, measured) tuple or a DisparityMap, "
                            f"got {type(out).__name__}")
