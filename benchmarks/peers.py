@@ -14,6 +14,7 @@ Without the extra the method is listed as not available with one line saying how
 from __future__ import annotations
 
 import importlib.util
+import logging
 from typing import Any
 
 import cv2
@@ -83,6 +84,7 @@ def pandora_factory(setup: Any) -> Any:
     from pandora.state_machine import PandoraMachine
 
     pandora.import_plugin()  # libSGM registers itself only here
+    logging.getLogger("transitions").setLevel(logging.ERROR)  # a warning per binding of every new PandoraMachine
     invalid = int(Criteria.PANDORA_MSK_PIXEL_INVALID)
     lo, hi = setup.min_disparity, setup.min_disparity + setup.num_disparities - 1
     left_range, right_range = [-hi, -lo], [lo, hi]  # Pandora's left disparity is x_right - x_left
