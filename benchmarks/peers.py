@@ -38,7 +38,7 @@ PANDORA_PIPELINE: dict[str, dict[str, Any]] = {
     "filter.after": {"filter_method": "median", "filter_size": 3},
 }
 
-_INSTALL = 'the extra `.[peers]` is not installed (pip install -e ".[peers]": pandora 1.9.0 + pandora-plugin-libsgm 1.5.8)'
+_INSTALL = 'install the extra: pip install -e ".[peers]" (pandora 1.9.0, pandora-plugin-libsgm 1.5.8)'
 _NODATA = -9999
 
 
