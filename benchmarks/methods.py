@@ -22,6 +22,8 @@ from typing import Any
 import cv2
 import numpy as np
 
+from benchmarks import peers
+
 __all__ = [
     "OPENCV_COMMON",
     "Method",
@@ -31,6 +33,7 @@ __all__ = [
     "opencv_methods",
     "opencv_to_disparity",
     "output_views",
+    "peer_methods",
     "stereo_classic_methods",
 ]
 
@@ -77,7 +80,7 @@ class Method:
     name : str
         Short unique name used in tables and figures.
     family : str
-        ``"stereo_classic"``, ``"opencv"`` or ``"onnx"``.
+        ``"stereo_classic"``, ``"opencv"``, ``"peer"`` (benchmarks.peers) or ``"onnx"``.
     description : str
         What it is, with its settings, for the report.
     factory : callable or None
@@ -295,9 +298,18 @@ def stereo_classic_methods() -> list[Method]:
     return out
 
 
+def peer_methods() -> list[Method]:
+    """The accuracy peers outside OpenCV (``benchmarks.peers``; the extra ``.[peers]``): ``pandora``."""
+    ok, reason = peers.pandora_available()
+    return [Method("pandora", "peer", peers.PANDORA_DESCRIPTION, peers.pandora_factory if ok else None, available=ok,
+                   reason=reason, params={"steps": " -> ".join(peers.PANDORA_PIPELINE), "P1/P2": "8/32", "census": "5x5",
+                           "threads": "1 (single-threaded)", "versions": "pandora 1.9.0, pandora-plugin-libsgm 1.5.8"})]
+
+
 def default_methods(names: Sequence[str] | None = None) -> list[Method]:
-    """All built-in methods (matcher variants first, then OpenCV), optionally filtered by name."""
-    methods = stereo_classic_methods() + opencv_methods()
+    """All built-in methods (matcher variants first, then OpenCV, then the peers of ``benchmarks.peers``), optionally
+    filtered by name. A peer whose extra is missing is listed as not available (its reason says how to install it)."""
+    methods = stereo_classic_methods() + opencv_methods() + peer_methods()
     if names:
         known = {m.name for m in methods}
         unknown = [n for n in names if n not in known]
