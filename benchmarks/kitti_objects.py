@@ -15,7 +15,7 @@ Methods (all on the same detections, the same rig, the same disparity range):
   (the learned cost of the shipped MC-CNN, the same range): the same detections, fusion, seed and frame checks.
 - ``ocv-3way``: OpenCV ``MODE_SGBM_3WAY`` (``benchmarks.methods.opencv_methods``, block size = ``SGMParams()``'s)
   and the same fusion (:func:`stereo_classic.localize`, ``FusionParams()``, same seed).
-- ``depthai-median``: the median depth of this project's measured disparity (``DisparityMap.measured_disparity``:
+- ``depthai-median``: the median depth of this project's measured disparity (``DisparityMap.disparity``:
   no filled pixels) inside the box shrunk to half its width and height about its centre (what DepthAI's
   SpatialLocationCalculator reports, without its depth thresholds).
 
@@ -169,7 +169,7 @@ def _check_methods(methods: Sequence[str]) -> tuple[str, ...]:
 
 def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Sequence[str] = DEFAULT_METHODS,
                            threads: int = 1, model: str = "yolox_nano", label_types: Sequence[str] = ("Car",),
-                           seed: int = 0, num_disparities: int | None = None) -> dict[str, Any]:
+                           seed: int = 0, num_disparities: int | None = None, fusion: Any = None) -> dict[str, Any]:
     """Per labelled object of a KITTI frame: the LiDAR reference and each method's distance and error.
 
     Parameters
@@ -190,6 +190,8 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
     num_disparities : int or None
         Disparity range of both matchers; None: ``run``'s for a pair (``CLI_NUM_DISPARITIES``, 128). Every other
         matcher setting is ``SGMParams()``'s default.
+    fusion : FusionParams or None
+        The fusion's settings (None: ``FusionParams()``, ``run``'s).
 
     Returns
     -------
@@ -234,14 +236,14 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
 
     params = SGMParams(num_disparities=CLI_NUM_DISPARITIES if num_disparities is None else num_disparities,
                        threads=threads)
-    fusion = FusionParams()
+    fusion = FusionParams() if fusion is None else fusion
     model_path = resolve_model(model)
     detector = OnnxDetector(model_path, conf_threshold=0.3, iou_threshold=0.45, threads=threads)
     with Localizer(rig, detector, params, fusion=fusion, seed=seed) as loc:
         result = loc(scene.left, scene.right)
     dets = result.detections
     # DepthAI's median reads measured pixels only: values the matcher filled into holes are not measurements
-    our_disp = np.asarray(getattr(result.disparity, "measured_disparity", result.disparity.disparity))
+    our_disp = np.asarray(result.disparity.disparity)
     fused: dict[str, Any] = {"run": result.objects}
     if "run-mccnn" in methods:  # run --cost mccnn: the same detector (so the same detections), fusion and checks
         with Localizer(rig, detector, params.replace(cost="mccnn"), fusion=fusion, seed=seed) as loc:
@@ -285,7 +287,8 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
                 if name in fused:
                     objs = fused[name]
                     d = _num(objs.distance_m[di])
-                    entry: dict[str, Any] = {"distance_m": d, "status": str(objs.status[di]), "error_pct": _pct(d, ref)}
+                    entry: dict[str, Any] = {"distance_m": d, "status": str(objs.status[di]), "error_pct": _pct(d, ref),
+                                             "distance_sigma_m": _num(objs.distance_sigma_m[di])}
                     near = _num(objs.nearest_m[di]) if objs.status[di] == "ok" else None
                     entry["nearest_m"] = near
                     entry["nearest_error_pct"] = _pct(near, ref10)

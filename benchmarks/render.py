@@ -454,8 +454,10 @@ def summary_markdown(report: Mapping[str, Any]) -> str:
     return render_markdown("Results", [sec]).split("\n", 2)[2]
 
 
-#: Methods of the README table: the default against every OpenCV SGBM mode.
-README_METHODS: tuple[str, ...] = ("sc-default", "ocv-sgbm", "ocv-hh", "ocv-3way", "ocv-hh4")
+#: Methods of the README table: the default against every OpenCV SGBM mode and the accuracy peer (when installed).
+README_METHODS: tuple[str, ...] = ("sc-default", "ocv-sgbm", "ocv-hh", "ocv-3way", "ocv-hh4", "pandora")
+#: Methods that run on one thread whatever the benchmark's thread count (their times say so).
+SINGLE_THREADED: frozenset[str] = frozenset({"pandora"})
 
 
 def _speed_line(report: Mapping[str, Any]) -> str | None:
@@ -468,7 +470,8 @@ def _speed_line(report: Mapping[str, Any]) -> str | None:
     if "sc-default" not in sel:
         return None
     me = sel["sc-default"]["median_ms"]
-    parts = [f"`{b}` {sel[b]['median_ms']:.1f} ms ({sel[b]['median_ms'] / me:.2f}x)" for b in README_METHODS[1:] if b in sel]
+    parts = [f"`{b}` {sel[b]['median_ms']:.1f} ms{' single-threaded' if b in SINGLE_THREADED else ''} "
+             f"({sel[b]['median_ms'] / me:.2f}x)" for b in README_METHODS[1:] if b in sel]
     return (f"**Speed** at 1242x375x128, {t} thread(s), median: `sc-default` {me:.1f} ms; " + ", ".join(parts)
             + " (x = their ms / ours).")
 

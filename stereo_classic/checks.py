@@ -248,7 +248,7 @@ class FrameChecker:
                     ) -> tuple[LocalizedObjects, FrameWarning | None]:
         """The objects (those beyond the range re-marked ``"beyond_range"``) and the range warning, or None;
         ``halves`` as for :meth:`check_pair`."""
-        disp = dmap.measured_disparity  # filled pixels are guesses: they neither saturate nor count as known
+        disp = dmap.disparity  # filled pixels are guesses: they neither saturate nor count as known
         top = float(dmap.params.max_disparity)
         frame_share = range_saturation(disp, top)
         boxes = _suspect_boxes(disp, objects, top, fusion.box_shrink)
@@ -288,7 +288,7 @@ class FrameChecker:
     def range_warning(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap) -> FrameWarning | None:
         """The range warning of a disparity map without a rig or objects (the ``disparity`` command), or None."""
         top = float(dmap.params.max_disparity)
-        disp = dmap.measured_disparity  # as check_range: filled pixels neither saturate nor count as known
+        disp = dmap.disparity  # as check_range: filled pixels neither saturate nor count as known
         share = range_saturation(disp, top)
         if share < SATURATION_WARN:
             return None

@@ -43,6 +43,7 @@ from stereo_classic.fusion import FusionInputError, FusionParams, as_generator
 from stereo_classic.fusion.objects import TABLE_COLUMNS
 from stereo_classic.matching import SGMParams
 from stereo_classic.outputs import (
+    DEFAULT_SAVE,
     SAVE_KINDS,
     FrameWriter,
     OutputFolder,
@@ -72,7 +73,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     out.add_argument("-o", "--output", default=None, metavar="DIR", help="output folder (default: stereo_out)")
     out.add_argument("--save", default=None, metavar="LIST",
                      help=f"comma-separated outputs among {','.join(SAVE_KINDS)} "
-                          "(default: all but ply; --ply adds the point cloud to any list)")
+                          f"(default: {','.join(DEFAULT_SAVE)}; dense, the filled disparity, confidence and ply only "
+                          "when named; --ply adds the point cloud to any list)")
     out.add_argument("--ply", action=argparse.BooleanOptionalAction, default=None,
                      help="also write a coloured PLY point cloud")
     out.add_argument("--resume", action="store_true", help="skip frames whose outputs are all present")

@@ -257,8 +257,8 @@ class SGMParams:
         8.2 / 16.8; with the weak-texture penalties: keep all 7.9 / 11.8, 0.5 6.7 / 8.0).
     fill_holes : bool
         Fill unknown pixels from the background side of each row, then a 3x3 median
-        (dense output, not a measurement: ``DisparityMap.filled`` marks them and distances use only
-        ``DisparityMap.measured_disparity``). Default True.
+        (dense output, not a measurement: ``DisparityMap.filled_disparity`` holds them, ``DisparityMap.filled``
+        marks them, and ``DisparityMap.disparity`` keeps only the measured pixels). Default True.
     paths : {3, 4, 8}
         Aggregation directions: 3 = left, right, top (OpenCV MODE_SGBM_3WAY's set; default), 4 adds
         bottom, 8 adds the diagonals. Diagonal and bottom-up paths pay P1 at every row on surfaces slanted

@@ -49,10 +49,10 @@ def test_output_views_reads_arrays_tuples_and_maps():
     assert output_views(a)[0] is a and output_views(a)[1] is a
     assert output_views((a, m))[1] is m
 
-    class Map:
-        disparity, measured_disparity = a, m
+    class Map:  # a DisparityMap: the measured pixels in disparity, the dense output in filled_disparity
+        filled_disparity, disparity = a, m
 
-    assert output_views(Map())[1] is m
+    assert output_views(Map())[0] is a and output_views(Map())[1] is m
 
 
 @pytest.mark.parametrize(

@@ -154,7 +154,7 @@ def test_mccnn_smoke_finds_the_shift_of_a_textured_pair():
     assert dmap.params.effective_feature_model == "mccnn-fast-dw"
     inner = dmap.measured_disparity[6:-6, 40:-6]
     assert np.nanmedian(inner) == 9.0 and np.mean(inner == 9.0) > 0.9
-    assert np.isfinite(dmap.disparity).all() and set(dmap.timings_ms) >= {"features", "cost", "aggregate"}
+    assert np.isfinite(dmap.filled_disparity).all() and set(dmap.timings_ms) >= {"features", "cost", "aggregate"}
 
 
 # ------------------------------------------------------------------------------------------------ memory
