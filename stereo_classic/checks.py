@@ -60,6 +60,7 @@ __all__ = [
     "MIN_CHECK_HEIGHT",
     "MIN_CHECK_WIDTH",
     "MISMATCH_VALID",
+    "PAIR_CLEAR",
     "SATURATION_WARN",
     "SWAP_MARGIN",
     "FrameChecker",
@@ -78,6 +79,14 @@ BOX_SPARSE = 0.6
 SWAP_MARGIN = 0.03
 #: Below this valid fraction (half size) in both orders the images are not a rectified pair.
 MISMATCH_VALID = 0.30
+#: Share of all pixels of the frame's own match that, left-right consistent within 1 px and measured (not filled),
+#: lie at disparities only the given order can have, from which the pair is taken as given without the half-size
+#: look: a majority of the image explained by the given order. Swapped, the true disparities are outside the
+#: search, and a pixel is consistent at a positive disparity only where the texture repeats at that offset both
+#: ways; measured with the default matcher at the range ``run`` picks (``python -m benchmarks.pair_check``): real
+#: pairs 35 to 94 %, swapped at most 27 % (Cloth1's repeating weave), unrelated images at most 8 %, a right image
+#: 15 rows down at most 40 %. Below it (stairs 35 %, corridor 46 %, pov_hands 50 %) the look decides as before.
+PAIR_CLEAR = 0.5
 #: The pair check needs half-size images at least this wide (and 32 columns wider than the disparities) and this
 #: high: at 80x60 (an OAK-D frame at --scale 0.25) nearly every match is consistent in both orders.
 MIN_CHECK_WIDTH, MIN_CHECK_HEIGHT = 128, 64
@@ -122,6 +131,7 @@ class _Halves:
         self._half: dict[int, np.ndarray] = {}
         self.look: DisparityMap | None = None
         self.looked = False
+        self.cleared = False  # the pair check passed the pair on the frame's own match: no negative side needed
 
     def get(self, side: int) -> np.ndarray:
         """0: the left image at half size, 1: the right one."""
@@ -147,6 +157,7 @@ class FrameChecker:
     def __init__(self, params: SGMParams) -> None:
         self.params = params
         self._matcher: StereoMatcher | None = None
+        self._range_matcher: StereoMatcher | None = None
 
     def halves(self, left: np.ndarray, right: np.ndarray) -> _Halves:
         """The half-size images of one frame, for its checks to share (pass it to each check of that frame)."""
@@ -165,20 +176,41 @@ class FrameChecker:
     def _look(self, halves: _Halves) -> DisparityMap | None:
         """The frame's half-size look (made once, kept on ``halves``), or None when the half-size images are too
         small for its range. Fixed settings, whatever the caller's (census cost with its default penalties, the
-        full 1 px left-right check, no hole filling): every disparity a measured, left-right consistent one."""
+        full 1 px left-right check, no hole filling): every disparity a measured, left-right consistent one.
+        When the pair check cleared the pair on the frame's own match (``halves.cleared``) the look covers the
+        given order's side only (from the range's start at half size, twice the reach): the range check reads
+        nothing else, and a third fewer disparities cost a third less."""
         if halves.looked:
             return halves.look
         halves.looked = True
         try:
-            if self._matcher is None:
+            matcher = self._range_matcher if halves.cleared else self._matcher
+            if matcher is None:
                 low, num = self.look_range()
-                self._matcher = StereoMatcher(self.params.replace(
+                if halves.cleared:
+                    low, num = math.floor(self.params.min_disparity / 2), self.params.num_disparities
+                matcher = StereoMatcher(self.params.replace(
                     min_disparity=low, num_disparities=num, cost="census", p1=None, p2=None, weak_texture_gain=1.0,
                     lr_check=1.0, lr_mode="full", fill_holes=False))
-            halves.look = self._matcher.compute(halves.get(0), halves.get(1))
+                if halves.cleared:
+                    self._range_matcher = matcher
+                else:
+                    self._matcher = matcher
+            halves.look = matcher.compute(halves.get(0), halves.get(1))
         except ValueError:  # StereoInputError, MemoryBudgetError: the images are too small for the range
             halves.look = None
         return halves.look
+
+    def given_share(self, dmap: DisparityMap) -> float | None:
+        """Fraction of all pixels of ``dmap`` (the frame's own match) measured at disparities only the given order
+        can have (the full-size equivalent of :meth:`order_shares`' threshold), or None when ``dmap`` was not made
+        with the full 1 px left-right check (its pixels need not be consistent, so the share proves nothing)."""
+        p = dmap.params
+        if p.lr_check is None or p.lr_check > 1.0 or p.lr_mode != "full":
+            return None
+        d = dmap.measured_disparity
+        with np.errstate(invalid="ignore"):
+            return int(np.count_nonzero(d >= 2.0 * self._order_threshold())) / max(1, d.size)
 
     def _order_threshold(self) -> float:
         """Half-size disparity from which only the given order has pixels: 1 px, beyond the mirror of a negative
@@ -208,8 +240,9 @@ class FrameChecker:
             return (int(np.count_nonzero(d >= t)) / d.size, int(np.count_nonzero(d <= -t)) / d.size)
 
     def close(self) -> None:
-        if self._matcher is not None:
-            self._matcher.release()
+        for matcher in (self._matcher, self._range_matcher):
+            if matcher is not None:
+                matcher.release()
 
     # ------------------------------------------------------------------------------------------ pair
     def check_pair(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap,
@@ -225,7 +258,12 @@ class FrameChecker:
             return None  # too small to tell: on tiny images nearly every match is consistent both ways
         if self.params.max_disparity / 2.0 < self._order_threshold() + 2.0:
             return None  # a range (nearly) symmetric about 0: both orders have the same disparities
-        look = self._look(self.halves(left, right) if halves is None else halves)
+        halves = self.halves(left, right) if halves is None else halves
+        share = self.given_share(dmap) if dmap.disparity.shape == (h, w) else None
+        if share is not None and share >= PAIR_CLEAR and not halves.looked:
+            halves.cleared = True  # a majority consistent in the given order: no look needed for the pair
+            return None
+        look = self._look(halves)
         if look is None:
             return None
         given, other = self.order_shares(look)
