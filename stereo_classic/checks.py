@@ -87,6 +87,10 @@ MISMATCH_VALID = 0.30
 #: pairs 35 to 94 %, swapped at most 27 % (Cloth1's repeating weave), unrelated images at most 8 %, a right image
 #: 15 rows down at most 40 %. Below it (stairs 35 %, corridor 46 %, pov_hands 50 %) the look decides as before.
 PAIR_CLEAR = 0.5
+#: Rows (full size) added above and below the part of a cleared frame that the range check's look reads: the
+#: look's paths get this much context beyond the suspect boxes (its census window and penalties act within a few
+#: pixels; 32 rows are 16 at half size, where a path's memory of a wrong start has faded).
+WINDOW_MARGIN = 32
 #: The pair check needs half-size images at least this wide (and 32 columns wider than the disparities) and this
 #: high: at 80x60 (an OAK-D frame at --scale 0.25) nearly every match is consistent in both orders.
 MIN_CHECK_WIDTH, MIN_CHECK_HEIGHT = 128, 64
@@ -132,6 +136,7 @@ class _Halves:
         self.look: DisparityMap | None = None
         self.looked = False
         self.cleared = False  # the pair check passed the pair on the frame's own match: no negative side needed
+        self.window: tuple[int, int, int, int] | None = None  # (u0, v0, u1, v1) at half size: the look's crop
 
     def get(self, side: int) -> np.ndarray:
         """0: the left image at half size, 1: the right one."""
@@ -173,13 +178,14 @@ class FrameChecker:
         low = min(start, -mirror)
         return low, start + p.num_disparities - low
 
-    def _look(self, halves: _Halves) -> DisparityMap | None:
+    def _look(self, halves: _Halves, window: tuple[int, int, int, int] | None = None) -> DisparityMap | None:
         """The frame's half-size look (made once, kept on ``halves``), or None when the half-size images are too
         small for its range. Fixed settings, whatever the caller's (census cost with its default penalties, the
         full 1 px left-right check, no hole filling): every disparity a measured, left-right consistent one.
         When the pair check cleared the pair on the frame's own match (``halves.cleared``) the look covers the
         given order's side only (from the range's start at half size, twice the reach): the range check reads
-        nothing else, and a third fewer disparities cost a third less."""
+        nothing else, and a third fewer disparities cost a third less. ``window`` (u0, v0, u1, v1, full-size
+        pixels): only that part of the frame is read (with a cleared pair; see :meth:`_window`)."""
         if halves.looked:
             return halves.look
         halves.looked = True
@@ -196,7 +202,15 @@ class FrameChecker:
                     self._range_matcher = matcher
                 else:
                     self._matcher = matcher
-            halves.look = matcher.compute(halves.get(0), halves.get(1))
+            if halves.cleared and window is not None:  # only the window is resized and matched
+                full_h, full_w = halves._full[0].shape[:2]
+                u0, v0 = max(0, window[0] // 2), max(0, window[1] // 2)
+                u1, v1 = min(full_w // 2, -(-window[2] // 2)), min(full_h // 2, -(-window[3] // 2))
+                halves.window = (u0, v0, u1, v1)
+                left, right = (_half(img[2 * v0:2 * v1, 2 * u0:2 * u1]) for img in halves._full)
+            else:
+                left, right = halves.get(0), halves.get(1)
+            halves.look = matcher.compute(left, right)
         except ValueError:  # StereoInputError, MemoryBudgetError: the images are too small for the range
             halves.look = None
         return halves.look
@@ -217,7 +231,8 @@ class FrameChecker:
         ``min_disparity``."""
         return 1.0 + max(0.0, -self.params.min_disparity / 2.0)
 
-    def _reach(self, look: DisparityMap, w: int, h: int) -> np.ndarray:
+    def _reach(self, look: DisparityMap, w: int, h: int,
+               window: tuple[int, int, int, int] | None = None) -> np.ndarray:
         """The look as a full-size disparity map of the given order (``w`` x ``h``, pixels at full scale). Unknown:
         the pixels it matched below the range's start at half size (the exchanged order's side), and the left
         border's columns that reach less than ``border_reach`` of the given order's ``num_disparities`` (the
@@ -225,6 +240,10 @@ class FrameChecker:
         p = self.params
         start = math.floor(p.min_disparity / 2)
         d = look.disparity.copy()
+        if window is not None:  # a cropped look: unknown outside its window
+            u0, v0, u1, v1 = window
+            d = np.full((max(h // 2, v1), max(w // 2, u1)), np.nan, np.float32)
+            d[v0:v1, u0:u1] = look.disparity
         with np.errstate(invalid="ignore"):
             d[d < start] = np.nan
         d[:, :max(0, math.ceil(start + p.border_reach * p.num_disparities - 1))] = np.nan
@@ -292,12 +311,13 @@ class FrameChecker:
         boxes = _suspect_boxes(disp, objects, top, fusion.box_shrink)
         if frame_share < SATURATION_WARN and not boxes.any():
             return objects, None
-        probe = self._look(self.halves(left, right) if halves is None else halves)
+        halves = self.halves(left, right) if halves is None else halves
+        probe = self._look(halves, self._window(disp, objects, boxes, top, frame_share))
         if probe is None:
             return objects, (FrameWarning("range_saturated", _range_message(frame_share, top, rig, None))
                              if frame_share >= SATURATION_WARN else None)
         h, w = disp.shape
-        wide = self._reach(probe, w, h)
+        wide = self._reach(probe, w, h, halves.window)
         beyond = np.zeros(len(objects), dtype=bool)
         needed_by_objects: float | None = None
         if frame_share >= SATURATION_WARN:
@@ -322,6 +342,32 @@ class FrameChecker:
         return objects, FrameWarning("range_saturated", _range_message(share, top, rig, needed, int(beyond.sum()),
                                                                        dmap.params.min_disparity))
 
+
+    def _window(self, disp: np.ndarray, objects: LocalizedObjects, boxes: np.ndarray, top: float,
+                frame_share: float) -> tuple[int, int, int, int]:
+        """(u0, v0, u1, v1), full-size pixels: the part of the frame the range check reads in the look (the suspect
+        boxes; every box and the pixels piled at the end when the frame is), widened leftwards by the look's reach
+        (a pixel's match lies up to that far left in the right image, so the window's pixels search all of it), and by
+        :data:`WINDOW_MARGIN` rows up and down (the aggregation's context)."""
+        h, w = disp.shape
+        xs: list[float] = []
+        ys: list[float] = []
+        chosen = np.ones(len(objects), dtype=bool) if frame_share >= SATURATION_WARN else boxes
+        for box in objects.xyxy[chosen].astype(np.float64):
+            xs += [box[0], box[2]]
+            ys += [box[1], box[3]]
+        if frame_share >= SATURATION_WARN:
+            with np.errstate(invalid="ignore"):
+                rows, cols = np.nonzero(disp >= top - 1.0)
+            if rows.size:
+                xs += [cols.min(), cols.max() + 1]
+                ys += [rows.min(), rows.max() + 1]
+        if not xs:
+            return 0, 0, w, h
+        reach = max(0, self.params.min_disparity) + 2 * self.params.num_disparities  # the look's end, full-size px
+        u0 = max(0, int(min(xs)) - reach)
+        v0 = max(0, int(min(ys)) - WINDOW_MARGIN)
+        return u0, v0, min(w, int(math.ceil(max(xs)))), min(h, int(math.ceil(max(ys))) + WINDOW_MARGIN)
 
     def range_warning(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap) -> FrameWarning | None:
         """The range warning of a disparity map without a rig or objects (the ``disparity`` command), or None."""
