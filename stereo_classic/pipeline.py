@@ -271,7 +271,8 @@ class Localizer:
         return objects, (warning,)
 
 
-def format_timings(timings: Iterable[Mapping[str, float]], *, stages: Iterable[str] | None = None) -> str:
+def format_timings(timings: Iterable[Mapping[str, float]], *, stages: Iterable[str] | None = None,
+                   rate: bool = True) -> str:
     """A short table of per-stage milliseconds over frames (median, and mean) plus frames per second.
 
     Parameters
@@ -280,6 +281,9 @@ def format_timings(timings: Iterable[Mapping[str, float]], *, stages: Iterable[s
         One ``timings_ms`` dict per frame.
     stages : iterable of str, optional
         Order of the rows; default: :data:`STAGES` first, then any other keys.
+    rate : bool
+        End with the frames per second of the median "total" (default); False: the number of frames only (for a
+        caller that reports the rate it measured over the whole loop).
 
     Returns
     -------
@@ -301,5 +305,6 @@ def format_timings(timings: Iterable[Mapping[str, float]], *, stages: Iterable[s
         lines.append(f"{k:<{width}}  {np.median(vals):9.1f}  {vals.mean():9.1f}")
     totals = [r["total"] for r in rows if "total" in r]
     fps = 1000.0 / float(np.median(totals)) if totals and np.median(totals) > 0 else math.nan
-    lines.append(f"{len(rows)} frame{'s' if len(rows) != 1 else ''}, {fps:.1f} frames/s")
+    frames = f"{len(rows)} frame{'s' if len(rows) != 1 else ''}"
+    lines.append(f"{frames}, {fps:.1f} frames/s" if rate else frames)
     return "\n".join(lines)

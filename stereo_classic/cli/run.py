@@ -323,12 +323,13 @@ def _report(summary: RunSummary, source: Source, outdir: Path, quiet: bool, wall
     if isinstance(source, sources.SideBySideSource) and source.stopped_early and not summary.interrupted:
         log.warning("%s stopped delivering frames after %d frame(s); finishing", source.what, source.frames_read)
     if summary.timings_ms and not quiet:
-        print(format_timings(summary.timings_ms), file=sys.stderr)
+        print(format_timings(summary.timings_ms, rate=wall <= 0), file=sys.stderr)
         for address, (frames, busy) in sorted(summary.workers.items()):
             print(f"worker {address}: {int(frames)} frame(s), {frames / busy if busy else 0:.2f} frames/s busy, "
                   f"{busy:.1f} s", file=sys.stderr)
         if wall > 0:
-            print(f"{summary.frames} frame(s) in {wall:.1f} s: {summary.frames / wall:.2f} frames/s", file=sys.stderr)
+            print(f"{summary.frames} frame(s) in {wall:.1f} s: {summary.frames / wall:.2f} frames/s (wall clock of the "
+                  "whole frame loop: reading, matching, detecting, checking, writing)", file=sys.stderr)
     text = f"{summary.frames} frame(s), {summary.objects} object(s), outputs in {outdir}"
     if summary.skipped:
         text += f"; {summary.skipped} finished frame(s) skipped (--resume)"
