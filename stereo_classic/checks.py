@@ -32,6 +32,13 @@ full-size reach (what an object nearer than the range has):
   check of ``RectifiedRig.rectify_pair`` measures. Every object of a swapped or mismatched frame gets the status
   ``"pair_mismatch"``. The check runs on every frame, so that a frame's result never depends on the frames
   before it; ``Localizer(checks=False)`` turns the checks off.
+* **Cheap on good frames.** The pair check reads the frame's own match first: with :data:`PAIR_CLEAR` (half) of
+  all pixels measured, consistent within 1 px, at disparities only the given order can have, the pair is taken
+  as given and the look is not made for it (swapped or unrelated pairs reach at most 27 % there; see the
+  constant). The range check looks only when its signals are raised, and after a cleared pair its look covers
+  the given order's side and the suspect part of the frame only (:meth:`FrameChecker._window`). A good frame
+  then costs the shares and histograms of the main match: 1.5 ms CPU on a 640x480 OAK-D frame, against 12 ms
+  with the look (docs/robustness.md).
 
 The one look replaced three (each order at half the range for the pair check, the given order at twice the reach
 for the range check): the kernels' time per pixel depends little on the number of disparities, and in one
