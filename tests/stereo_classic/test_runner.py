@@ -192,3 +192,17 @@ def test_reading_ahead_writes_the_same_bytes_and_reads_in_its_own_thread(tmp_pat
         assert all(n.startswith("stereo-reader") == ahead for n in readers) and len(readers) == 4
         outs[ahead] = {p.name: p.read_bytes() for p in sorted(out.iterdir())}
     assert outs[True] == outs[False] and len(outs[True]) > 3
+
+
+def test_read_ahead_on_the_command_line_writes_the_same_files(tmp_path, pairs):
+    files, rig = pairs
+    calib_file = tmp_path / "rig.yaml"
+    rig.to_opencv_yaml(calib_file)
+    outs = {}
+    for flag in ("--read-ahead", "--no-read-ahead"):
+        out = tmp_path / flag
+        argv = ["-q", "run", "--left", *[str(p[0]) for p in files], "--right", *[str(p[1]) for p in files],
+                "--calib", str(calib_file), "--model", "none", "--num-disparities", "48", flag, "-o", str(out)]
+        assert main(argv) == 0
+        outs[flag] = {p.name: p.read_bytes() for p in sorted(out.iterdir()) if p.name != ".stereo_classic.lock"}
+    assert outs["--read-ahead"] == outs["--no-read-ahead"] and "objects.jsonl" in outs["--read-ahead"]
