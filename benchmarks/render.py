@@ -286,6 +286,7 @@ def _objects_sections(report: Mapping[str, Any]) -> list[Section]:
                                 + [f"{k} ms" for k in stage_names], trows, "stage columns: median ms per call"))
     out.append(sec)
 
+    out.append(_pipeline_table_section(report))
     dist = report.get("distance") or {}
     sec = Section("Object distance error")
     if not dist:
@@ -319,6 +320,18 @@ def _objects_sections(report: Mapping[str, Any]) -> list[Section]:
         trows.append(mean_row)
         ssec.tables.append(Table(["object", "reference m"] + methods, trows))
     return out
+
+
+def _pipeline_table_section(report: Mapping[str, Any]) -> Section:
+    """``run`` and ``guide`` frame by frame: stage median ms / CPU ms, frames/s, latency (benchmarks.pipeline_table)."""
+    from benchmarks.pipeline_table import format_table
+
+    table = report.get("pipeline_table") or {"available": False, "reason": "not measured in this run"}
+    sec = Section("Pipeline stages of run and guide")
+    if table.get("available"):
+        sec.paragraphs.append(f"{table['how']}. Cells: median wall ms / mean process CPU ms per frame (all threads).")
+    sec.paragraphs.append(format_table(table))
+    return sec
 
 
 def markdown_sections(title: str, text: str, *, level: int = 2) -> list[Section]:
@@ -526,6 +539,12 @@ def readme_markdown(report: Mapping[str, Any]) -> str:
     if pipe:
         lines += ["**Pipeline** (Localizer, default detector, 2 threads): " + "; ".join(
             f"{p['size'][0]}x{p['size'][1]}x{p['num_disparities']} {p['fps']:.1f} frames/s" for p in pipe) + ".", ""]
+    table = report.get("pipeline_table") or {}
+    if table.get("available"):
+        from benchmarks.pipeline_table import format_table
+
+        lines += ["**`run` and `guide`, frame by frame** (read to record written; cells: median ms / process CPU ms "
+                  "per frame):", "", format_table(table), ""]
     return "\n".join(lines)
 
 
