@@ -169,6 +169,8 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
             if separate:
                 guide.reset()
             t = time.monotonic() - start if live else (0.0 if separate else frame.index / fps)
+            if not separate and frame.source and "time_s" in frame.source:  # a recording: its stamps
+                t = float(frame.source["time_s"])
             t0 = time.perf_counter()
             gframe = guide.update(result, rig, t, frame=frame.name)
             guide_ms = (time.perf_counter() - t0) * 1e3

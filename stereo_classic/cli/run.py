@@ -283,6 +283,10 @@ def _input_settings(args: argparse.Namespace) -> dict[str, Any]:
         return {"dataset": absolute(args.dataset)}
     if args.video is not None:
         return {"video": absolute(args.video), "calib": absolute(args.calib), "rectify": bool(args.rectify)}
+    if getattr(args, "bag", None) is not None:
+        return {"bag": absolute(args.bag), **{k: getattr(args, k) for k in (
+            "left_topic", "right_topic", "left_info_topic", "right_info_topic", "stamp_tolerance")},
+            "calib": absolute(args.calib), "rectify": bool(args.rectify)}
     if args.camera is not None:
         return {"camera": args.camera, "calib": absolute(args.calib), "rectify": bool(args.rectify)}
     return {"demo": True}
@@ -332,6 +336,10 @@ def _report(summary: RunSummary, source: Source, outdir: Path, quiet: bool, wall
     text = f"{summary.frames} frame(s), {summary.objects} object(s), outputs in {outdir}"
     if summary.skipped:
         text += f"; {summary.skipped} finished frame(s) skipped (--resume)"
+    unpaired = getattr(source, "unpaired", None)  # a recording's messages without a partner (BagSource)
+    if unpaired and any(unpaired.values()):
+        text += (f"; {sum(len(v) for v in unpaired.values())} image message(s) without a partner not used: "
+                 + source.unpaired_text())
     if summary.skipped_scenes:
         text += f"; {len(summary.skipped_scenes)} scene(s) not measured (no calibration, named above)"
     if summary.failed:
