@@ -205,6 +205,10 @@ class BagSource:
                 if types[topic] not in IMAGE_TYPES:
                     raise BagError(f"{option} {topic} holds {types[topic]}, expected sensor_msgs/msg/Image or "
                                    "CompressedImage")
+            self.frame_id = ""
+            for _, _, _, decoded in reader.iter_decoded_messages(topics=[left_topic]):
+                self.frame_id = str(decoded.header.frame_id)  # the results are stamped in the input's frame
+                break
             stamps: dict[str, list[tuple[int, int]]] = {left_topic: [], right_topic: []}
             for _, channel, message in reader.iter_messages(topics=[left_topic, right_topic]):
                 stamps[channel.topic].append((_cdr_stamp(message.data), message.log_time))
@@ -306,7 +310,8 @@ class BagSource:
                            partial(_load_pair, self.path, self.left_topic, self.right_topic, l_at, r_at,
                                    self.info_size),
                            {"bag": self.path, "left_topic": self.left_topic, "right_topic": self.right_topic,
-                            "stamp": stamp, "right_stamp": _name(r_at[1]), "time_s": round(self.time_s(i), 9)})
+                            "stamp": stamp, "right_stamp": _name(r_at[1]), "time_s": round(self.time_s(i), 9),
+                            "frame_id": self.frame_id})
 
     def frames(self, skip: Callable[[str], bool] = lambda name: False) -> Iterator[Frame]:
         for ref in self.refs(skip):
