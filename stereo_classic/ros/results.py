@@ -92,7 +92,7 @@ def json_string(value: Any) -> dict[str, Any]:
 
 def fill(msg: Any, values: dict[str, Any]) -> Any:
     """Set the fields of an ``rclpy`` message ``msg`` from a dict of this module (nested dicts and lists of dicts
-    become nested messages; ``bytes`` become the ``uint8[]`` field). Returns ``msg``."""
+    become nested messages; ``bytes`` fill a ``uint8[]`` field). Returns ``msg``."""
     for key, value in values.items():
         current = getattr(msg, key)
         if isinstance(value, dict):
@@ -101,8 +101,6 @@ def fill(msg: Any, values: dict[str, Any]) -> Any:
             kind = type(msg).get_fields_and_field_types()[key]
             item_type = _message_class(kind)
             setattr(msg, key, [fill(item_type(), v) for v in value])
-        elif isinstance(value, bytes):
-            setattr(msg, key, np.frombuffer(value, dtype=np.uint8))
         else:
             setattr(msg, key, value)
     return msg
