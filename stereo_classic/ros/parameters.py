@@ -43,12 +43,13 @@ def _identity(value: Any) -> Any:
     return value
 
 
-def parameter_table(cls: type, prefix: str) -> list[Parameter]:
-    """The ROS parameters of dataclass ``cls`` (its command-line option fields), named ``prefix.field``."""
-    defaults = cls()
+def parameter_table(cls: type, prefix: str, defaults: Mapping[str, Any] | None = None) -> list[Parameter]:
+    """The ROS parameters of dataclass ``cls`` (its command-line option fields), named ``prefix.field``;
+    ``defaults`` (field -> value) replaces fields' defaults (the commands' ``num_disparities`` of 128)."""
+    instance = cls()
     out = []
     for f in option_fields(cls):
-        value = getattr(defaults, f.name)
+        value = (defaults or {}).get(f.name, getattr(instance, f.name))
         meta = f.metadata
         text = meta["help"]
         if isinstance(value, (bool, int, float, str)) and "parse" not in meta:
@@ -67,8 +68,10 @@ def parameter_table(cls: type, prefix: str) -> list[Parameter]:
     return out
 
 
-def dataclass_values(cls: type, prefix: str, values: Mapping[str, Any]) -> dict[str, Any]:
-    """The fields whose parameter (in ``values``, name -> value) differs from its default, converted.
+def dataclass_values(cls: type, prefix: str, values: Mapping[str, Any],
+                     defaults: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The fields whose parameter (in ``values``, name -> value) differs from the dataclass's default, converted
+    (``defaults``: as for :func:`parameter_table`; a field given there is always returned).
 
     Raises
     ------
@@ -76,8 +79,8 @@ def dataclass_values(cls: type, prefix: str, values: Mapping[str, Any]) -> dict[
         A value its field's parser refuses (the message names the parameter).
     """
     out = {}
-    for p in parameter_table(cls, prefix):
-        if p.name not in values or values[p.name] == p.default:
+    for p in parameter_table(cls, prefix, defaults):
+        if p.name not in values or (values[p.name] == p.default and p.field not in (defaults or {})):
             continue
         try:
             value = p.convert(values[p.name])

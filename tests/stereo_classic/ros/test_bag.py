@@ -12,34 +12,12 @@ pytest.importorskip("mcap_ros2.writer", reason="the bag extra (mcap, mcap-ros2-s
 
 import calib  # noqa: E402
 from stereo_classic.cli.main import main  # noqa: E402
-from stereo_classic.io import read_image  # noqa: E402
 from stereo_classic.ros.bag import BagSource  # noqa: E402
 from tests.helpers import ros_bags  # noqa: E402
 from tests.helpers.ros_bags import LEFT, RIGHT  # noqa: E402
 
 T0 = 1_700_000_000 * 1_000_000_000
 STAMPS = [T0, T0 + 100_000_000, T0 + 200_000_000]
-
-
-@pytest.fixture(scope="module")
-def kitti(shared_data: Path):
-    folder = shared_data / "kitti_object_pair"
-    if not folder.is_dir():
-        pytest.skip("kitti_object_pair not in the shared data")
-    rig = calib.load_rig(folder / "calib.txt")
-    return folder, read_image(folder / "left.png"), read_image(folder / "right.png"), rig
-
-
-@pytest.fixture(scope="module")
-def files_objects(kitti, tmp_path_factory) -> list:
-    folder, *_ = kitti
-    out = tmp_path_factory.mktemp("files")
-    code = main(["run", "-q", "--left", str(folder / "left.png"), "--right", str(folder / "right.png"),
-                 "--calib", str(folder / "calib.txt"), "--save", "json", "-o", str(out)])
-    assert code == 0
-    objects = json.loads((out / "left_objects.json").read_text())["objects"]
-    assert len(objects) >= 3  # seven labelled cars: the comparison below is not one of empty lists
-    return objects
 
 
 def _run_bag(bag: Path, out: Path, *extra: str, quiet: bool = True) -> int:
