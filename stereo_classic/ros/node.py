@@ -82,8 +82,16 @@ class StereoNode:
         self.slop_ns = int(float(node.get_parameter("sync.slop").value) * 1e9)
         self.seed = int(node.get_parameter("seed").value)
         self.frame_id = str(node.get_parameter("frame_id").value)
+        node.declare_parameter("image_qos", "reliable", _descriptor(
+            "reliability of the image and camera_info subscriptions: reliable (as stereo_image_proc publishes; a "
+            "best-effort publisher is then not heard) or best_effort (takes both, but large images lose fragments)"))
+        choice = str(node.get_parameter("image_qos").value)
         qos = ros["qos"]
-        sensor = qos.qos_profile_sensor_data  # best effort, keep last: takes reliable and best-effort publishers
+        if choice not in ("reliable", "best_effort"):
+            raise ValueError(f"parameter image_qos must be reliable or best_effort, got {choice!r}")
+        sensor = qos.QoSProfile(depth=2, history=qos.HistoryPolicy.KEEP_LAST,  # the newest only: no queue
+                                reliability=qos.ReliabilityPolicy.RELIABLE if choice == "reliable"
+                                else qos.ReliabilityPolicy.BEST_EFFORT)
         msgs = ros["sensor_msgs"]
         self._lock = threading.Condition()
         self._latest: dict[str, Any] = {}
@@ -236,6 +244,7 @@ def run_node(make_localizer: Any, *, ros_args: list[str], guide: bool = False, n
     stereo.start()
     node.get_logger().info("waiting for left/image_rect, right/image_rect and their camera_info")
     executor = ros["executors"].SingleThreadedExecutor()
+    started = time.monotonic()
     executor.add_node(node)
     try:
         executor.spin()
@@ -243,8 +252,10 @@ def run_node(make_localizer: Any, *, ros_args: list[str], guide: bool = False, n
         pass
     finally:
         stereo.stop()  # rclpy's context may be shut down already (a signal): say it on this package's log
-        logging.getLogger("stereo_classic.ros").info("stopped: %d frame(s) processed, %d stale pair(s) dropped",
-                                                     stereo.processed, stereo.dropped)
+        seconds = time.monotonic() - started
+        logging.getLogger("stereo_classic.ros").info(
+            "stopped: %d frame(s) processed in %.1f s (%.2f frames/s), %d stale pair(s) dropped", stereo.processed,
+            seconds, stereo.processed / max(seconds, 1e-9), stereo.dropped)
         executor.shutdown()
         node.destroy_node()
         if rclpy.ok():
