@@ -19,9 +19,15 @@ from tests.helpers.ros_bags import LEFT, RIGHT  # noqa: E402
 T0 = 1_700_000_000 * 1_000_000_000
 
 
-def test_save_mcap_holds_every_frame_in_order(shared_data: Path, tmp_path):
-    from mcap_ros2.reader import read_ros2_messages
+def read_ros2_messages(path: Path) -> list:
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
 
+    with open(path, "rb") as f:
+        return list(make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages())
+
+
+def test_save_mcap_holds_every_frame_in_order(shared_data: Path, tmp_path):
     folder = shared_data / "kitti_object_pair"
     if not folder.is_dir():
         pytest.skip("kitti_object_pair not in the shared data")
@@ -33,12 +39,12 @@ def test_save_mcap_holds_every_frame_in_order(shared_data: Path, tmp_path):
     assert main(["run", "-q", "--bag", str(bag), "--left-topic", LEFT, "--right-topic", RIGHT,
                  "--save", "json,pfm,mcap", "-o", str(out)]) == 0
     records = [json.loads(line) for line in (out / "objects.jsonl").read_text().splitlines()]
-    messages = list(read_ros2_messages(out / "results.mcap"))
+    messages = read_ros2_messages(out / "results.mcap")
     assert [m.channel.topic for m in messages] == [
         "/stereo_classic/disparity", "/stereo_classic/objects/markers", "/stereo_classic/objects"] * 3
-    assert [m.log_time_ns for m in messages] == [s for s in stamps for _ in range(3)]
+    assert [m.message.log_time for m in messages] == [s for s in stamps for _ in range(3)]
     for k, record in enumerate(records):
-        disp_msg, markers, objects = (m.ros_msg for m in messages[3 * k: 3 * k + 3])
+        disp_msg, markers, objects = (m.decoded_message for m in messages[3 * k: 3 * k + 3])
         assert (disp_msg.header.stamp.sec, disp_msg.header.stamp.nanosec) == divmod(stamps[k], 1_000_000_000)
         assert disp_msg.header.frame_id == "left_camera"
         assert json.loads(objects.data) == record
@@ -63,3 +69,23 @@ def test_save_mcap_holds_every_frame_in_order(shared_data: Path, tmp_path):
 def test_save_mcap_refuses_resume(tmp_path, capsys):
     code = main(["run", "--save", "mcap", "--resume", "-o", str(tmp_path / "o"), "--model", "none"])
     assert code == 2 and "cannot be resumed" in capsys.readouterr().err
+
+
+def test_guide_save_mcap_holds_the_events(shared_data: Path, tmp_path):
+    folder = shared_data / "kitti_object_pair"
+    if not folder.is_dir():
+        pytest.skip("kitti_object_pair not in the shared data")
+    left, right = read_image(folder / "left.png"), read_image(folder / "right.png")
+    rig = calib.load_rig(folder / "calib.txt")
+    bag = ros_bags.stereo_bag(tmp_path / "in.mcap", left, right, rig, [T0, T0 + 100_000_000])
+    out = tmp_path / "guide"
+    assert main(["guide", "-q", "--bag", str(bag), "--left-topic", LEFT, "--right-topic", RIGHT, "--save", "mcap",
+                 "-o", str(out)]) == 0
+    events = [json.loads(line) for line in (out / "events.jsonl").read_text().splitlines()]
+    events = [e for e in events if e["kind"] != "haptics"]
+    assert events  # the KITTI frame says at least that the ground is not seen
+    messages = read_ros2_messages(out / "results.mcap")
+    said = [json.loads(m.decoded_message.data) for m in messages if m.channel.topic == "/stereo_classic/guide/events"]
+    assert said == events
+    assert [m.message.log_time for m in messages if m.channel.topic == "/stereo_classic/disparity"] == [
+        T0, T0 + 100_000_000]
