@@ -40,7 +40,7 @@ def _fill(msg, values):
     return fill(msg, values)
 
 
-def test_node_publishes_what_run_measures(kitti, files_objects, tmp_path):
+def test_node_publishes_what_run_measures(kitti, files_objects, tmp_path, monkeypatch):
     from rclpy.qos import QoSProfile, ReliabilityPolicy
     from sensor_msgs.msg import CameraInfo, Image
     from std_msgs.msg import String
@@ -49,8 +49,9 @@ def test_node_publishes_what_run_measures(kitti, files_objects, tmp_path):
 
     _, left, right, rig = kitti
     env = _env()
-    os.environ["ROS_DOMAIN_ID"] = env["ROS_DOMAIN_ID"]  # this process's node joins the same domain
-    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    monkeypatch.setenv("ROS_DOMAIN_ID", env["ROS_DOMAIN_ID"])  # this process's node joins the same domain
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
     log = (tmp_path / "node.log").open("w")
     node_proc = subprocess.Popen([sys.executable, "-m", "stereo_classic", "ros", "--ros-args", "-p",
                                   "report_period:=1.0"], cwd=REPO, env=env, stdout=log, stderr=subprocess.STDOUT)
