@@ -437,12 +437,14 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
                 rrev[q * nrr + j] = rcode[y, c, q]
     for x in range(W):
         cb = x * D
-        if grad:  # the window sum of the pixel: hsum over the column sums x - h .. x + h
+        bin_ = (x + 2 * h) * D
+        bout = (x - 1) * D
+        # census + grad past the first column moves the window sum on in its cost loop (one pass over D, below)
+        fused = grad and high and kind != SAD and x > 0
+        if grad and not fused:  # the window sum of the pixel: hsum over the column sums x - h .. x + h
             if x == 0:
                 sad_hsum_init(hsum, colsum, 0, h, D)
             else:
-                bin_ = (x + 2 * h) * D
-                bout = (x - 1) * D
                 for k in range(D):
                     hsum[k] = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
         if kind == SAD:
@@ -457,7 +459,15 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
         j1 = j0 + nrr
         j2 = j1 + nrr
         j3 = j2 + nrr
-        if grad and high:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT
+        if fused:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT
+            for k in range(D):
+                hs = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
+                hsum[k] = hs
+                crow[_U(cb + k)] = max16(add16(
+                    add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                          add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)]))),
+                    mulhi16(hs, ghi)), floor[k])
+        elif grad and high:  # the first column: the window sum made above
             for k in range(D):
                 crow[_U(cb + k)] = max16(add16(
                     add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
