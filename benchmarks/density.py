@@ -1,6 +1,6 @@
 """Where the matcher's measured pixels go: per post-matching step, how many it removes and how many of those were wrong.
 
-The matcher's valid view (``DisparityMap.measured_disparity``) keeps the pixels that survive, in pipeline order,
+The matcher's valid view (``DisparityMap.disparity``, the measured pixels) keeps the pixels that survive, in pipeline order,
 the left-right check (in the kernels, with uniqueness), the border-reach rule (``border_reach``) and the speckle
 filter. Per scene the matcher runs three times with the same parameters: every filter off (the raw winners, which
 the filters only ever remove, never change), the kernels' filters only, and the full pipeline (holes not filled).

@@ -51,7 +51,7 @@ def measure(data: Path, frames: int = 5, model: str | None = "yolox_nano", save:
             g, up = first.ground, first.gravity
             seeded = []
             if seeds:
-                measured = result.disparity.measured_disparity
+                measured = result.disparity.disparity
                 pts = frame_points(measured, rig, guide.params, result.left)  # as Guide
                 fits = []
                 for i in range(seeds):

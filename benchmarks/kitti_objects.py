@@ -11,9 +11,11 @@ Methods (all on the same detections, the same rig, the same disparity range):
 - ``run``: :class:`stereo_classic.Localizer` as ``run`` builds it: the default detector (``yolox_nano`` via
   ``detectors.resolve_model``, ``run``'s thresholds), ``SGMParams()`` defaults with ``run``'s disparity range
   (``CLI_NUM_DISPARITIES``), ``FusionParams()`` defaults, the frame checks on.
+- ``run-mccnn``: ``run --cost mccnn``: the same :class:`stereo_classic.Localizer` with ``SGMParams(cost="mccnn")``
+  (the learned cost of the shipped MC-CNN, the same range): the same detections, fusion, seed and frame checks.
 - ``ocv-3way``: OpenCV ``MODE_SGBM_3WAY`` (``benchmarks.methods.opencv_methods``, block size = ``SGMParams()``'s)
   and the same fusion (:func:`stereo_classic.localize`, ``FusionParams()``, same seed).
-- ``depthai-median``: the median depth of this project's measured disparity (``DisparityMap.measured_disparity``:
+- ``depthai-median``: the median depth of this project's measured disparity (``DisparityMap.disparity``:
   no filled pixels) inside the box shrunk to half its width and height about its centre (what DepthAI's
   SpatialLocationCalculator reports, without its depth thresholds).
 
@@ -42,7 +44,7 @@ __all__ = ["DEFAULT_METHODS", "half_box_median", "in_view", "kitti_object_benchm
 log = logging.getLogger("benchmarks.kitti_objects")
 
 #: Methods compared, in table order.
-DEFAULT_METHODS: tuple[str, ...] = ("run", "ocv-3way", "depthai-median")
+DEFAULT_METHODS: tuple[str, ...] = ("run", "run-mccnn", "ocv-3way", "depthai-median")
 #: Detector classes a labelled car may be matched to (a car is sometimes called a truck).
 VEHICLE_CLASSES: tuple[str, ...] = ("car", "truck", "bus")
 #: Smallest 2D IoU of a label-detection match.
@@ -51,7 +53,7 @@ MIN_IOU = 0.5
 BAR_PCT = 3.0
 #: Labels with at most this truncation count as "not truncated" (KITTI's "easy" limit).
 MAX_TRUNCATION = 0.15
-_FUSION_METHODS = ("run", "ocv-3way")
+_FUSION_METHODS = ("run", "run-mccnn", "ocv-3way")
 
 
 def _pair_folder(data_dir: str | Path | None) -> Path:
@@ -165,7 +167,7 @@ def _check_methods(methods: Sequence[str]) -> tuple[str, ...]:
 
 def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Sequence[str] = DEFAULT_METHODS,
                            threads: int = 1, model: str = "yolox_nano", label_types: Sequence[str] = ("Car",),
-                           seed: int = 0, num_disparities: int | None = None) -> dict[str, Any]:
+                           seed: int = 0, num_disparities: int | None = None, fusion: Any = None) -> dict[str, Any]:
     """Per labelled object of a KITTI frame: the LiDAR reference and each method's distance and error.
 
     Parameters
@@ -186,6 +188,8 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
     num_disparities : int or None
         Disparity range of both matchers; None: ``run``'s for a pair (``CLI_NUM_DISPARITIES``, 128). Every other
         matcher setting is ``SGMParams()``'s default.
+    fusion : FusionParams or None
+        The fusion's settings (None: ``FusionParams()``, ``run``'s).
 
     Returns
     -------
@@ -230,15 +234,21 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
 
     params = SGMParams(num_disparities=CLI_NUM_DISPARITIES if num_disparities is None else num_disparities,
                        threads=threads)
-    fusion = FusionParams()
+    fusion = FusionParams() if fusion is None else fusion
     model_path = resolve_model(model)
     detector = OnnxDetector(model_path, conf_threshold=0.3, iou_threshold=0.45, threads=threads)
     with Localizer(rig, detector, params, fusion=fusion, seed=seed) as loc:
         result = loc(scene.left, scene.right)
     dets = result.detections
     # DepthAI's median reads measured pixels only: values the matcher filled into holes are not measurements
-    our_disp = np.asarray(getattr(result.disparity, "measured_disparity", result.disparity.disparity))
+    our_disp = np.asarray(result.disparity.disparity)
     fused: dict[str, Any] = {"run": result.objects}
+    if "run-mccnn" in methods:  # run --cost mccnn: the same detector (so the same detections), fusion and checks
+        with Localizer(rig, detector, params.replace(cost="mccnn"), fusion=fusion, seed=seed) as loc:
+            learned = loc(scene.left, scene.right)
+        if not np.array_equal(np.asarray(learned.detections.xyxy), np.asarray(dets.xyxy)):
+            raise RuntimeError("the detector gave other detections on the second run: labels would not match")
+        fused["run-mccnn"] = learned.objects
     if "ocv-3way" in methods:
         ocv = next(m for m in opencv_methods() if m.name == "ocv-3way")
         setup = Setup(num_disparities=params.num_disparities, min_disparity=params.min_disparity,
@@ -275,7 +285,8 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
                 if name in fused:
                     objs = fused[name]
                     d = _num(objs.distance_m[di])
-                    entry: dict[str, Any] = {"distance_m": d, "status": str(objs.status[di]), "error_pct": _pct(d, ref)}
+                    entry: dict[str, Any] = {"distance_m": d, "status": str(objs.status[di]), "error_pct": _pct(d, ref),
+                                             "distance_sigma_m": _num(objs.distance_sigma_m[di])}
                     near = _num(objs.nearest_m[di]) if objs.status[di] == "ok" else None
                     entry["nearest_m"] = near
                     entry["nearest_error_pct"] = _pct(near, ref10)
@@ -316,7 +327,8 @@ def _fmt(value: float | None, spec: str = ".2f", suffix: str = "") -> str:
     return "–" if value is None else f"{value:{spec}}{suffix}"
 
 
-_TITLES = {"run": "`run`", "ocv-3way": "3WAY + fusion", "depthai-median": "DepthAI median"}
+_TITLES = {"run": "`run`", "run-mccnn": "`run --cost mccnn`", "ocv-3way": "3WAY + fusion",
+           "depthai-median": "DepthAI median"}
 
 
 def render_markdown(result: dict[str, Any]) -> str:

@@ -8,7 +8,8 @@ unknown, so the metrics count every method's invalid border the same way.
 A method whose output holds values it did not measure (this project's matcher fills its holes,
 ``SGMParams.fill_holes``, marked in ``DisparityMap.filled``) returns both: the output (scored in the
 dense and unknown-is-bad views) and the measured pixels only (scored in the valid view), as a
-``DisparityMap`` or a ``(output, measured)`` tuple; :func:`output_views` reads either.
+``DisparityMap`` (``filled_disparity`` and ``disparity``) or a ``(output, measured)`` tuple; :func:`output_views`
+reads either.
 """
 
 from __future__ import annotations
@@ -21,6 +22,8 @@ from typing import Any
 import cv2
 import numpy as np
 
+from benchmarks import peers
+
 __all__ = [
     "OPENCV_COMMON",
     "Method",
@@ -30,11 +33,12 @@ __all__ = [
     "opencv_methods",
     "opencv_to_disparity",
     "output_views",
+    "peer_methods",
     "stereo_classic_methods",
 ]
 
 #: A prepared method: ``runner(left, right) -> (H, W) float32 disparity, NaN unknown`` (used for every view),
-#: or an object with ``disparity`` and ``measured_disparity`` (a ``DisparityMap``) or an ``(output, measured)``
+#: or an object with ``filled_disparity`` and ``disparity`` (a ``DisparityMap``) or an ``(output, measured)``
 #: tuple when the output holds filled pixels (see :func:`output_views`).
 Runner = Callable[[np.ndarray, np.ndarray], Any]
 
@@ -76,7 +80,7 @@ class Method:
     name : str
         Short unique name used in tables and figures.
     family : str
-        ``"stereo_classic"``, ``"opencv"`` or ``"onnx"``.
+        ``"stereo_classic"``, ``"opencv"``, ``"peer"`` (benchmarks.peers) or ``"onnx"``.
     description : str
         What it is, with its settings, for the report.
     factory : callable or None
@@ -111,7 +115,8 @@ def output_views(out: Any, shape: tuple[int, int] | None = None) -> tuple[np.nda
 
     Parameters
     ----------
-    out : (H, W) float array, ``(output, measured)`` tuple, or object with ``disparity`` and ``measured_disparity``
+    out : (H, W) float array, ``(output, measured)`` tuple, or object with ``filled_disparity`` (the output) and
+        ``disparity`` (the measured pixels), as a ``DisparityMap``
     shape : (H, W), optional
         The shape both must have (the input's).
 
@@ -131,8 +136,8 @@ def output_views(out: Any, shape: tuple[int, int] | None = None) -> tuple[np.nda
         disp, measured = out, out
     elif isinstance(out, tuple) and len(out) == 2:
         disp, measured = out
-    elif hasattr(out, "disparity") and hasattr(out, "measured_disparity"):
-        disp, measured = out.disparity, out.measured_disparity
+    elif hasattr(out, "disparity") and hasattr(out, "filled_disparity"):
+        disp, measured = out.filled_disparity, out.disparity  # the dense view needs the filled map
     else:
         raise RuntimeError(f"a method must return an (H, W) float array, an (output, measured) tuple or a DisparityMap, "
                            f"got {type(out).__name__}")
@@ -245,6 +250,7 @@ def opencv_methods() -> list[Method]:
 #: (name, overrides of SGMParams(), what it is) of the matcher variants; short: every one runs on every scene.
 _MATCHER_VARIANTS: tuple[tuple[str, dict[str, Any], str], ...] = (
     ("sc-default", {}, "stereo_classic SGMParams() defaults"),
+    ("sc-mccnn", {"cost": "mccnn"}, "the default with the learned cost of the shipped MC-CNN fast network"),
     ("sc-census-8", {"cost": "census", "paths": 8, "lr_check": None, "fill_holes": False},
      "the previous default (before commit cfc357c)"),
     ("sc-census-3", {"cost": "census"}, "the default with the plain census cost"),
@@ -292,9 +298,18 @@ def stereo_classic_methods() -> list[Method]:
     return out
 
 
+def peer_methods() -> list[Method]:
+    """The accuracy peers outside OpenCV (``benchmarks.peers``; the extra ``.[peers]``): ``pandora``."""
+    ok, reason = peers.pandora_available()
+    return [Method("pandora", "peer", peers.PANDORA_DESCRIPTION, peers.pandora_factory if ok else None, available=ok,
+                   reason=reason, params={"steps": " -> ".join(peers.PANDORA_PIPELINE), "P1/P2": "8/32", "census": "5x5",
+                           "threads": "1 (single-threaded)", "versions": "pandora 1.9.0, pandora-plugin-libsgm 1.5.8"})]
+
+
 def default_methods(names: Sequence[str] | None = None) -> list[Method]:
-    """All built-in methods (matcher variants first, then OpenCV), optionally filtered by name."""
-    methods = stereo_classic_methods() + opencv_methods()
+    """All built-in methods (matcher variants first, then OpenCV, then the peers of ``benchmarks.peers``), optionally
+    filtered by name. A peer whose extra is missing is listed as not available (its reason says how to install it)."""
+    methods = stereo_classic_methods() + opencv_methods() + peer_methods()
     if names:
         known = {m.name for m in methods}
         unknown = [n for n in names if n not in known]

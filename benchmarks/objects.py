@@ -167,3 +167,9 @@ def distance_errors(scene: Any, model: Path | None, outputs: Mapping[str, np.nda
                 entry["error_pct"] = 100.0 * abs(d - ref) / ref
             obj["methods"][method] = entry
     return {"available": True, "scene": scene.name, "reference": how, "model": Path(model).name, "objects": objects}
+
+
+if __name__ == "__main__":  # python -m benchmarks.objects: the per-object error table (benchmarks.object_errors)
+    from benchmarks.object_errors import main
+
+    raise SystemExit(main())

@@ -58,10 +58,12 @@ def _summary_section(report: Mapping[str, Any]) -> Section:
             if n not in sel:
                 continue
             r = sel[n]
-            rows.append([n, fmt(r["median_ms"], 1), fmt(r["mde_per_s"], 0)] + [fmt(sel[b]["median_ms"] / r["median_ms"]) for b in present])
+            rows.append([n, fmt(r["median_ms"], 1), fmt(r.get("cpu_median_ms"), 1), fmt(r["mde_per_s"], 0)]
+                        + [fmt(sel[b]["median_ms"] / r["median_ms"]) for b in present])
         w, h, d = size_of[target]
-        sec.tables.append(Table(["method", "ms (median)", "MDE/s"] + [f"x vs {b}" for b in present], rows,
-                                f"speed on {target} ({w}x{h}, {d} disparities) at {t_top} thread(s); ratio = baseline ms / method ms"))
+        sec.tables.append(Table(["method", "ms (median)", "CPU ms (median)", "MDE/s"] + [f"x vs {b}" for b in present], rows,
+                                f"speed on {target} ({w}x{h}, {d} disparities) at {t_top} thread(s); ratio = baseline ms / method ms; "
+                                f"CPU ms = process CPU time per call (all threads)"))
     scaling = report.get("scaling") or {}
     if scaling.get("available"):
         sec.tables.append(_scaling_table(scaling, compact=True))
@@ -283,6 +285,7 @@ def _objects_sections(report: Mapping[str, Any]) -> list[Section]:
                                 + [f"{k} ms" for k in stage_names], trows, "stage columns: median ms per call"))
     out.append(sec)
 
+    out.append(_pipeline_table_section(report))
     dist = report.get("distance") or {}
     sec = Section("Object distance error")
     if not dist:
@@ -316,6 +319,18 @@ def _objects_sections(report: Mapping[str, Any]) -> list[Section]:
         trows.append(mean_row)
         ssec.tables.append(Table(["object", "reference m"] + methods, trows))
     return out
+
+
+def _pipeline_table_section(report: Mapping[str, Any]) -> Section:
+    """``run`` and ``guide`` frame by frame: stage median ms / CPU ms, frames/s, latency (benchmarks.pipeline_table)."""
+    from benchmarks.pipeline_table import format_table
+
+    table = report.get("pipeline_table") or {"available": False, "reason": "not measured in this run"}
+    sec = Section("Pipeline stages of run and guide")
+    if table.get("available"):
+        sec.paragraphs.append(f"{table['how']}. Cells: median wall ms / mean process CPU ms per frame (all threads).")
+    sec.paragraphs.append(format_table(table))
+    return sec
 
 
 def markdown_sections(title: str, text: str, *, level: int = 2) -> list[Section]:
@@ -451,8 +466,10 @@ def summary_markdown(report: Mapping[str, Any]) -> str:
     return render_markdown("Results", [sec]).split("\n", 2)[2]
 
 
-#: Methods of the README table: the default against every OpenCV SGBM mode.
-README_METHODS: tuple[str, ...] = ("sc-default", "ocv-sgbm", "ocv-hh", "ocv-3way", "ocv-hh4")
+#: Methods of the README table: the default against every OpenCV SGBM mode and the accuracy peer (when installed).
+README_METHODS: tuple[str, ...] = ("sc-default", "ocv-sgbm", "ocv-hh", "ocv-3way", "ocv-hh4", "pandora")
+#: Methods that run on one thread whatever the benchmark's thread count (their times say so).
+SINGLE_THREADED: frozenset[str] = frozenset({"pandora"})
 
 
 def _speed_line(report: Mapping[str, Any]) -> str | None:
@@ -465,7 +482,8 @@ def _speed_line(report: Mapping[str, Any]) -> str | None:
     if "sc-default" not in sel:
         return None
     me = sel["sc-default"]["median_ms"]
-    parts = [f"`{b}` {sel[b]['median_ms']:.1f} ms ({sel[b]['median_ms'] / me:.2f}x)" for b in README_METHODS[1:] if b in sel]
+    parts = [f"`{b}` {sel[b]['median_ms']:.1f} ms{' single-threaded' if b in SINGLE_THREADED else ''} "
+             f"({sel[b]['median_ms'] / me:.2f}x)" for b in README_METHODS[1:] if b in sel]
     return (f"**Speed** at 1242x375x128, {t} thread(s), median: `sc-default` {me:.1f} ms; " + ", ".join(parts)
             + " (x = their ms / ours).")
 
@@ -520,6 +538,12 @@ def readme_markdown(report: Mapping[str, Any]) -> str:
     if pipe:
         lines += ["**Pipeline** (Localizer, default detector, 2 threads): " + "; ".join(
             f"{p['size'][0]}x{p['size'][1]}x{p['num_disparities']} {p['fps']:.1f} frames/s" for p in pipe) + ".", ""]
+    table = report.get("pipeline_table") or {}
+    if table.get("available"):
+        from benchmarks.pipeline_table import format_table
+
+        lines += ["**`run` and `guide`, frame by frame** (read to record written; cells: median ms / process CPU ms "
+                  "per frame):", "", format_table(table), ""]
     return "\n".join(lines)
 
 

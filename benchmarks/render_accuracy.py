@@ -30,10 +30,11 @@ VIEWS_TEXT: tuple[str, ...] = (
     "counts every pixel with ground truth and an unknown one as bad (it rewards density); **valid** counts only "
     "pixels with an estimate (it rewards leaving hard pixels out: read it with the density). D1 is KITTI's "
     "(error > 3 px and > 5 %). Pixels without ground truth never count."),
-    ("This project's matcher fills its holes by default (`SGMParams.fill_holes`, the filled pixels marked in "
-    "`DisparityMap.filled`), so its output has no unknown pixel: its dense and ukb views score the same filled "
-    "output and coincide (up to the devkit's fill of a pixel it did leave unknown). A filled pixel is not a "
-    "measurement, so its **valid view is computed on the measured pixels only** (`DisparityMap.measured_disparity`) "
+    ("This project's matcher fills its holes by default (`SGMParams.fill_holes`: the filled map is "
+    "`DisparityMap.filled_disparity`, the filled pixels marked in `DisparityMap.filled`), so its dense output has no "
+    "unknown pixel: its dense and ukb views score the same filled output and coincide (up to the devkit's fill of a "
+    "pixel it did leave unknown). A filled pixel is not a measurement, so its **valid view is computed on the "
+    "measured pixels only** (`DisparityMap.disparity`) "
     "and the density beside it (`valid density`) is the measured density. OpenCV's methods return one array, "
     "scored in all three views."),
 )

@@ -454,6 +454,10 @@ def _objects(config: BenchConfig, scenes: Sequence[BenchScene], arrays: dict, th
                                        concurrent=concurrent)
             row.update({"input": note, "concurrent": concurrent})
             out["pipeline"].append(row)
+    from benchmarks import pipeline_table
+
+    log.info("pipeline table: run and guide, frame by frame (KITTI pair x30, OAK-D scenes)")
+    out["pipeline_table"] = pipeline_table.measure(config.data_dir, default_model)
     out["distance"] = {}
     for scene in (kitti, moto):
         if scene is None:

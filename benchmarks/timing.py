@@ -22,10 +22,16 @@ class TimingResult:
 
     first_call_ms: float
     times_ms: tuple[float, ...]
+    #: CPU time of each timed call (``time.process_time``: every thread of the process), milliseconds
+    cpu_ms: tuple[float, ...] = ()
 
     @property
     def median_ms(self) -> float | None:
         return statistics.median(self.times_ms) if self.times_ms else None
+
+    @property
+    def cpu_median_ms(self) -> float | None:
+        return statistics.median(self.cpu_ms) if self.cpu_ms else None
 
     @property
     def min_ms(self) -> float | None:
@@ -84,17 +90,20 @@ def time_interleaved(
             if on_step:
                 on_step(name)
     times: dict[str, list[float]] = {n: [] for n in names}
+    cpu: dict[str, list[float]] = {n: [] for n in names}
     for rep in range(repeat):
         shift = rep % len(names) if names else 0
         for name in names[shift:] + names[:shift]:
             if pause_s > 0:
                 time.sleep(pause_s)
+            c0 = time.process_time()
             t0 = time.perf_counter()
             runners[name]()
             times[name].append((time.perf_counter() - t0) * 1000.0)
+            cpu[name].append((time.process_time() - c0) * 1000.0)
             if on_step:
                 on_step(name)
-    return {n: TimingResult(first.get(n, float("nan")), tuple(times[n])) for n in names}
+    return {n: TimingResult(first.get(n, float("nan")), tuple(times[n]), tuple(cpu[n])) for n in names}
 
 
 def summarize(result: TimingResult, width: int, height: int, num_disparities: int) -> dict[str, float | None | list[float]]:
@@ -104,6 +113,7 @@ def summarize(result: TimingResult, width: int, height: int, num_disparities: in
         "min_ms": result.min_ms,
         "max_ms": result.max_ms,
         "mde_per_s": mde_per_s(width, height, num_disparities, result.median_ms),
+        "cpu_median_ms": result.cpu_median_ms,
         "first_call_ms": result.first_call_ms if result.first_call_ms == result.first_call_ms else None,
         "times_ms": list(result.times_ms),
     }

@@ -82,6 +82,7 @@ def _run_defaults() -> dict[str, tuple[Any, str]]:
         "scale": 1.0,
         "max_frames": 0,
         "concurrent": False,
+        "read_ahead": False,
         "on_error": "stop",
         "executor": "serial",
         "scheduler": "",

@@ -124,8 +124,9 @@ def func(args: argparse.Namespace) -> int:
 
 def _print_summary(dmap: DisparityMap, stream: Any) -> None:
     v = dmap.validity
-    print(f"valid pixels: {v['valid']} of {v['pixels']} ({100.0 * dmap.valid_fraction:.1f} %)"
-          + (f", {v['filled']} filled" if v.get("filled") else ""), file=stream)
+    measured = v["valid"] - (v.get("filled") or 0)  # the files hold these; the filled ones are not written
+    print(f"valid pixels: {measured} of {v['pixels']} ({100.0 * dmap.valid_fraction:.1f} %)"
+          + (f", {v['filled']} more filled (not written)" if v.get("filled") else ""), file=stream)
     print("stage         ms", file=stream)
     for stage, ms in dmap.timings_ms.items():
         print(f"{stage:<12}{ms:>8.1f}", file=stream)

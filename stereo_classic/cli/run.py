@@ -43,6 +43,7 @@ from stereo_classic.fusion import FusionInputError, FusionParams, as_generator
 from stereo_classic.fusion.objects import TABLE_COLUMNS
 from stereo_classic.matching import SGMParams
 from stereo_classic.outputs import (
+    DEFAULT_SAVE,
     SAVE_KINDS,
     FrameWriter,
     OutputFolder,
@@ -72,7 +73,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     out.add_argument("-o", "--output", default=None, metavar="DIR", help="output folder (default: stereo_out)")
     out.add_argument("--save", default=None, metavar="LIST",
                      help=f"comma-separated outputs among {','.join(k for k in SAVE_KINDS if k != 'ply')} "
-                          "(default: all of them)")
+                          f"(default: {','.join(DEFAULT_SAVE)}; dense, the filled disparity, and confidence only when named)")
     out.add_argument("--ply", action=argparse.BooleanOptionalAction, default=None,
                      help="also write a coloured PLY point cloud")
     out.add_argument("--resume", action="store_true", help="skip frames whose outputs are all present")
@@ -86,6 +87,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                      help="threads for the matcher and the detector (default: all)")
     run.add_argument("--concurrent", action=argparse.BooleanOptionalAction, default=None,
                      help="run the detector in a thread beside the matcher (default off: not faster on 2 cores)")
+    run.add_argument("--read-ahead", action=argparse.BooleanOptionalAction, default=None,
+                     help="read and decode the next frame in a thread while one is processed (default off: no "
+                          "measurable gain on 2 cores, which the matcher keeps busy; same output either way)")
     run.add_argument("--on-error", choices=ON_ERROR, default=None,
                      help="a frame that cannot be read or processed: stop the run (default) or skip it, "
                           "naming it in the summary")
@@ -277,7 +281,7 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
             detector=detector, detector_name=detector_name, fusion=fusion, seed=cfg["seed"],
             classes=cfg["classes"] or None, concurrent=cfg["concurrent"], scale=cfg["scale"],
             progress=not (quiet or args.no_progress) and sys.stderr.isatty(), on_frame=show,
-            on_error=cfg["on_error"], executor=executor)
+            on_error=cfg["on_error"], executor=executor, read_ahead=cfg["read_ahead"])
         wall = time.perf_counter() - started
     return _report(summary, source, outdir, quiet, wall, flagged)
 
@@ -348,12 +352,13 @@ def _report(summary: RunSummary, source: Source, outdir: Path, quiet: bool, wall
     if isinstance(source, sources.SideBySideSource) and source.stopped_early and not summary.interrupted:
         log.warning("%s stopped delivering frames after %d frame(s); finishing", source.what, source.frames_read)
     if summary.timings_ms and not quiet:
-        print(format_timings(summary.timings_ms), file=sys.stderr)
+        print(format_timings(summary.timings_ms, rate=wall <= 0), file=sys.stderr)
         for address, (frames, busy) in sorted(summary.workers.items()):
             print(f"worker {address}: {int(frames)} frame(s), {frames / busy if busy else 0:.2f} frames/s busy, "
                   f"{busy:.1f} s", file=sys.stderr)
         if wall > 0:
-            print(f"{summary.frames} frame(s) in {wall:.1f} s: {summary.frames / wall:.2f} frames/s", file=sys.stderr)
+            print(f"{summary.frames} frame(s) in {wall:.1f} s: {summary.frames / wall:.2f} frames/s (wall clock of the "
+                  "whole frame loop: reading, matching, detecting, checking, writing)", file=sys.stderr)
     text = f"{summary.frames} frame(s), {summary.objects} object(s), outputs in {outdir}"
     if summary.skipped:
         text += f"; {summary.skipped} finished frame(s) skipped (--resume)"

@@ -39,11 +39,18 @@ import numpy as np
 
 from calib.geometry import points_from_pixels
 from stereo_classic.fusion.boxes import boxes_and_meta, shrunk_pixel_box
+from stereo_classic.fusion.contact import AGREEMENT_SIGMAS, GROUND_CLASSES, disparity_sigma, ground_contact
 from stereo_classic.fusion.objects import LocalizedObjects
 from stereo_classic.fusion.params import FusionInputError, FusionParams, as_generator
 from stereo_classic.fusion.ransac import sequential_clusters
 
 __all__ = ["NEAREST_PERCENTILE", "localize"]
+
+#: A set "reaches the box's bottom" when this percentile of its pixels' rows lies in the box's lowest quarter (of the
+#: shrunk box: the object's foot, the wheels or the legs are there; the 90th percentile, so that a few stray pixels
+#: of the background below the object do not count).
+BOTTOM_PERCENTILE = 90.0
+BOTTOM_REACH = 0.75
 
 #: The nearest surface of an object (``LocalizedObjects.nearest_m``): this percentile of its inliers' depth.
 #: Not the minimum, which one wrong pixel decides.
@@ -115,6 +122,7 @@ def localize(
     ratio = np.full(n, np.nan)
     spread = np.full(n, np.nan)
     nearest = np.full(n, np.nan)
+    sigma_m = np.full(n, np.nan)
     occluded = np.zeros(n, dtype=bool)
     status: list[str] = []
     near, far = params.depth_range
@@ -129,7 +137,8 @@ def localize(
             status.append("out_of_range")
             continue
         if params.method == "ransac":
-            mask, occluded[i] = _ransac_members(depths, params, gen, pinhole.doffs)
+            grounded = params.ground_contact and labels[i] in GROUND_CLASSES
+            mask, occluded[i] = _ransac_members(depths, params, gen, pinhole.doffs, grounded)
             if mask is None:
                 status.append("no_consensus")
                 continue
@@ -139,6 +148,11 @@ def localize(
             # than those in front, so the mean sits behind the surface (KITTI's 21 m car: +3.5 % against the
             # median of the LiDAR points in its labelled box, the median +2.5 %)
             centroid = np.array([np.median(x), np.median(y), np.median(z)])
+            if params.ground_contact and labels[i] in GROUND_CLASSES and not _contact_agrees(
+                    disp, xyxy[i], depths.d[mask], float(centroid[2]), params, pinhole):
+                status.append("estimates_disagree")  # which one is right cannot be told: neither is reported
+                occluded[i] = False
+                continue
         else:
             med = float(np.median(depths.d))
             mask = np.abs(depths.d - med) <= params.tolerance_px
@@ -155,11 +169,13 @@ def localize(
         ratio[i] = inliers[i] / depths.d.size
         spread[i] = float(z.std())
         nearest[i] = float(np.percentile(z, NEAREST_PERCENTILE))
+        sigma_m[i] = centroid[2] ** 2 / (pinhole.focal_px * pinhole.baseline_m) * disparity_sigma(depths.d[mask])
 
     return LocalizedObjects(
         labels=labels, class_id=class_id, confidence=confidence, xyxy=xyxy.astype(np.float32),
         distance_m=distance, xyz=xyz, inliers=inliers, valid_pixels=valid_pixels, inlier_ratio=ratio,
         spread_m=spread, status=tuple(status), method=params.method, occluded=occluded, nearest_m=nearest,
+        distance_sigma_m=sigma_m,
     )
 
 
@@ -201,11 +217,9 @@ def _resolve_params(params: FusionParams | None, overrides: dict[str, Any]) -> F
 def _disparity_array(disparity_map: Any) -> np.ndarray:
     """The (H, W) real disparity array of a DisparityMap (or of anything with ``.disparity``) or an array.
 
-    Of a DisparityMap, only the measured pixels (``measured_disparity``): values filled into holes are
-    guesses and never make a distance."""
-    disp_src = getattr(disparity_map, "measured_disparity", None)
-    if disp_src is None:
-        disp_src = getattr(disparity_map, "disparity", disparity_map)  # DisparityMap or a foreign look-alike
+    Of a DisparityMap, ``disparity``: the measured pixels only (values filled into holes are in
+    ``filled_disparity``; they are guesses and never make a distance)."""
+    disp_src = getattr(disparity_map, "disparity", disparity_map)  # DisparityMap or a foreign look-alike
     try:
         disp = np.asarray(disp_src)
     except (TypeError, ValueError) as exc:
@@ -279,7 +293,7 @@ def _vote_weights(flat: np.ndarray, width: int, height: int, centre_sigma: float
 
 
 def _ransac_members(depths: _BoxDepths, params: FusionParams, gen: np.random.Generator,
-                    doffs: float = 0.0) -> tuple[np.ndarray | None, bool]:
+                    doffs: float = 0.0, grounded: bool = False) -> tuple[np.ndarray | None, bool]:
     """(k,) bool: the members of the chosen consistent set (None when there is no consensus), and whether a
     nearer set was passed over as an occluder.
 
@@ -305,10 +319,42 @@ def _ransac_members(depths: _BoxDepths, params: FusionParams, gen: np.random.Gen
         chosen, heaviest, flat[pick] if sampled else flat, depths.width, depths.height, params, doffs)
     if occluder:
         chosen = heaviest
+    if grounded:  # an object on the ground reaches the box's bottom; a set that stays above it is what lies behind
+        chosen = _standing_set(chosen, clusters, flat[pick] if sampled else flat, depths.width, depths.height, params)
     mask = ((d >= chosen.low) & (d <= chosen.high)) if sampled else chosen.mask
     if int(mask.sum()) < params.min_pixels:
         return None, False
     return mask, occluder
+
+
+def _contact_agrees(disp: np.ndarray, box: np.ndarray, values: np.ndarray, z: float, params: FusionParams,
+                    pinhole: _Pinhole) -> bool:
+    """Whether the distance ``z`` of the set of disparity ``values`` agrees with the box's ground contact
+    (:func:`~stereo_classic.fusion.contact.ground_contact`) within ``AGREEMENT_SIGMAS`` combined standard
+    uncertainties; True where there is no contact estimate."""
+    contact = ground_contact(disp, box, params.min_pixels)
+    if contact is None:
+        return True
+    alpha, sigma_alpha = contact
+    d_set = pinhole.focal_px * pinhole.baseline_m / z - pinhole.doffs
+    return abs(d_set - alpha) <= AGREEMENT_SIGMAS * math.hypot(disparity_sigma(values), sigma_alpha)
+
+
+def _standing_set(chosen: Any, clusters: list, flat: np.ndarray, width: int, height: int,
+                  params: FusionParams) -> Any:
+    """``chosen``, unless its pixels stay in the upper part of the box (their ``BOTTOM_PERCENTILE``-th percentile row
+    above ``BOTTOM_REACH`` of the shrunk box's height) while a nearer set reaches the bottom, centred across the box
+    (an occluder enters from a side, ``occluder_offset``): then the heaviest such set. A person or a vehicle stands
+    on the ground at its box's bottom edge; what is seen only above it (trees, buildings behind a box placed too
+    high) is the background, however many pixels it has."""
+    def reaches(c: Any) -> bool:
+        return float(np.percentile(flat[c.mask] // width, BOTTOM_PERCENTILE)) >= BOTTOM_REACH * height - 1
+
+    if reaches(chosen):
+        return chosen
+    standing = [c for c in clusters if c.centre > chosen.centre and reaches(c)
+                and abs(float(((flat[c.mask] % width + 0.5) / width - 0.5).mean())) < params.occluder_offset]
+    return max(standing, key=lambda c: c.support) if standing else chosen
 
 
 def _offset(flat: np.ndarray, width: int, height: int) -> float:

@@ -24,8 +24,10 @@ TABLE_COLUMNS: tuple[str, ...] = ("label", "confidence", "distance", "x (m)", "y
 #: Every value ``LocalizedObjects.status`` can take.
 #: "beyond_range" (the object is nearer than the disparity range reaches) and "pair_mismatch" (left/right swapped
 #: or not a pair) are set by the frame checks of :mod:`stereo_classic.checks`.
+#: "estimates_disagree": the box's consistent set and its ground contact give distances further apart than their
+#: uncertainties allow (``FusionParams.ground_contact``).
 STATUSES: tuple[str, ...] = ("ok", "empty_box", "too_few_depth_pixels", "out_of_range", "no_consensus",
-                             "beyond_range", "pair_mismatch")
+                             "beyond_range", "pair_mismatch", "estimates_disagree")
 
 
 def direction_phrase(xyz: Sequence[float] | np.ndarray) -> str:
@@ -89,6 +91,10 @@ class LocalizedObjects:
         Depth of the object's nearest surface, metres: the 10th percentile of the inliers' depth (a walking
         person or a robot reaches the near part of a car first, not its middle). NaN where there is no
         distance; default all NaN.
+    distance_sigma_m : (N,) float64
+        One standard uncertainty of ``distance_m``, metres (``Z**2 / (f B)`` times the disparity's: the subpixel
+        precision and the spread of the set, :func:`stereo_classic.fusion.localize.disparity_sigma`). NaN where
+        there is no distance; default all NaN.
     """
 
     labels: tuple[str, ...]
@@ -105,9 +111,16 @@ class LocalizedObjects:
     method: str = "ransac"
     occluded: np.ndarray | None = None
     nearest_m: np.ndarray | None = None
+    distance_sigma_m: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = len(self.labels)
+        sigma = np.full(n, np.nan) if self.distance_sigma_m is None else np.asarray(self.distance_sigma_m,
+                                                                                      dtype=np.float64)
+        if sigma.shape != (n,):
+            raise FusionInputError(f"LocalizedObjects.distance_sigma_m must be an array of shape ({n},), got "
+                                   f"{sigma.shape}")
+        object.__setattr__(self, "distance_sigma_m", sigma)
         nearest = np.full(n, np.nan) if self.nearest_m is None else np.asarray(self.nearest_m, dtype=np.float64)
         if nearest.shape != (n,):
             raise FusionInputError(f"LocalizedObjects.nearest_m must be an array of shape ({n},), got {nearest.shape}")
@@ -148,7 +161,7 @@ class LocalizedObjects:
             xyz=self.xyz[rows], inliers=self.inliers[rows], valid_pixels=self.valid_pixels[rows],
             inlier_ratio=self.inlier_ratio[rows], spread_m=self.spread_m[rows],
             status=tuple(self.status[i] for i in rows), method=self.method, occluded=self.occluded[rows],
-            nearest_m=self.nearest_m[rows],
+            nearest_m=self.nearest_m[rows], distance_sigma_m=self.distance_sigma_m[rows],
         )
 
     @property
@@ -180,7 +193,8 @@ class LocalizedObjects:
         return dataclasses.replace(
             self, status=status_, distance_m=self.distance_m * nan, xyz=self.xyz * nan[:, None],
             inliers=np.where(picked, 0, self.inliers), inlier_ratio=self.inlier_ratio * nan,
-            spread_m=self.spread_m * nan, occluded=self.occluded & ~picked, nearest_m=self.nearest_m * nan)
+            spread_m=self.spread_m * nan, occluded=self.occluded & ~picked, nearest_m=self.nearest_m * nan,
+            distance_sigma_m=self.distance_sigma_m * nan)
 
     @classmethod
     def empty(cls, method: str = "ransac") -> LocalizedObjects:
@@ -210,6 +224,7 @@ class LocalizedObjects:
                 "box_xyxy": [_round(float(c), 2) for c in self.xyxy[i]],
                 "status": self.status[i],
                 "distance_m": _round(float(self.distance_m[i]), 3),
+                "distance_sigma_m": _round(float(self.distance_sigma_m[i]), 3),
                 "xyz_m": None if not np.all(np.isfinite(self.xyz[i])) else [_round(float(c), 3) for c in self.xyz[i]],
                 "direction": direction_phrase(self.xyz[i]) or None,
                 "inliers": int(self.inliers[i]),

@@ -134,6 +134,14 @@ class FusionParams:
         occluders enter from its edges (the hand: 0.30 of the height below the centre, the chair 0.20 above).
         Then the heaviest set (the one covering the object) gives the distance and the object is flagged
         ``occluded``. 0.5 turns the rule off.
+    ground_contact : bool
+        For objects that stand on the ground (``GROUND_CLASSES``: persons, cars, ...), a second, independent
+        estimate from where the box's bottom meets the road (the road's disparity just below the box, extrapolated
+        to the box's bottom row). Where it and the consistent set differ by more than three combined standard
+        uncertainties the status is "estimates_disagree" (no distance: which one is right cannot be told).
+        Also, such an object reaches its box's bottom: a chosen set that stays in the box's upper three quarters
+        gives way to a nearer set, centred across the box, that reaches the bottom (the background behind a box
+        placed too high is not the object). False: the consistent set alone, as before issue 31.
 
     Raises
     ------
@@ -173,6 +181,9 @@ class FusionParams:
         "help": "a nearer off-centre set this many times nearer than the largest is an occluder", "metavar": "R"})
     occluder_offset: float = field(default=0.25, metadata={
         "help": "off-centre fraction of the box that makes a nearer set an occluder (0.5: never)", "metavar": "F"})
+    ground_contact: bool = field(default=True, metadata={
+        "help": "check each person's or vehicle's distance against where its box meets the road; "
+                "--no-ground-contact: the consistent set alone", "metavar": None})
 
     def __post_init__(self) -> None:
         def set_(name: str, value: Any) -> None:
@@ -213,6 +224,9 @@ class FusionParams:
         if not (math.isfinite(near) and math.isfinite(far) and 0.0 <= near < far):
             raise FusionInputError(
                 f"`depth_range` must satisfy 0 <= near < far (finite metres), got {self.depth_range!r}")
+        if not isinstance(self.ground_contact, (bool, np.bool_)):
+            raise FusionInputError(f"`ground_contact` must be True or False, got {self.ground_contact!r}")
+        set_("ground_contact", bool(self.ground_contact))
         counts = {name: check_count(name, getattr(self, name))
                   for name in ("min_pixels", "max_clusters", "max_iterations", "max_samples")}
         set_("box_shrink", box_shrink)

@@ -183,7 +183,7 @@ class Guide:
         Parameters
         ----------
         result : stereo_classic.PipelineResult (``disparity`` and ``objects`` are used; of the disparity map only
-            the measured pixels, ``measured_disparity``)
+            the measured pixels, ``disparity``, never ``filled_disparity``)
         rig : calib.RectifiedRig, the rig of the images the matcher saw
         time_s : float, seconds, increasing from frame to frame
         frame : str, the frame's name in events (default: its number)
@@ -201,9 +201,9 @@ class Guide:
         if not isinstance(rig, RectifiedRig):
             raise GuideInputError(f"`rig` must be a calib.RectifiedRig, got {type(rig).__name__}")
         dmap = getattr(result, "disparity", None)
-        # the measured pixels only: filled ones (``DisparityMap.filled``) are guesses from the background beside a
-        # hole, and a guess must not make an obstacle, a ground or a distance
-        disparity = getattr(dmap, "measured_disparity", getattr(dmap, "disparity", None))
+        # the measured pixels only (``DisparityMap.disparity``; the filled ones, in ``filled_disparity``, are guesses
+        # from the background beside a hole, and a guess must not make an obstacle, a ground or a distance)
+        disparity = getattr(dmap, "disparity", None)
         if not isinstance(disparity, np.ndarray) or disparity.ndim != 2:
             raise GuideInputError(f"`result` must be a PipelineResult with a disparity map, got {type(result).__name__}")
         size = (disparity.shape[1], disparity.shape[0])

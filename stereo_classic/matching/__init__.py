@@ -6,6 +6,8 @@ Modules, in the order the data flows:
   (with the command-line help of each field).
 * ``matcher``: ``compute_disparity`` / ``StereoMatcher`` (input checks, grey conversion, memory
   budget, the kernels, post-processing) and the result object ``DisparityMap``.
+* ``learned``: learned matching costs, a Siamese feature network (ONNX; MC-CNN fast shipped in ``data/``) whose
+  int8 features the kernels compare a row at a time (``cost="mccnn"`` / ``"features"``).
 * ``postprocess``: ``filter_speckles`` and ``fill_holes`` on float32 disparity maps.
 * ``_kernels``: the numba kernels (``core``: the fused passes; ``cost``: census, SAD and the gradient term;
   ``intrinsics``: int16 arithmetic as LLVM operations); ``reference``: their slow numpy reference.
@@ -30,8 +32,11 @@ from stereo_classic.matching.matcher import (
     estimate_memory,
     to_gray_uint8,
 )
+from stereo_classic.matching.learned import FeatureModelError
 from stereo_classic.matching.params import (
     COSTS,
+    FEATURE_SIMILARITIES,
+    LEARNED_COSTS,
     LR_MODES,
     MAX_BLOCK_SIZE,
     MAX_NUM_DISPARITIES,
@@ -54,6 +59,9 @@ __all__ = [
     "default_memory_limit",
     "MEMORY_LIMIT_ENV",
     "COSTS",
+    "LEARNED_COSTS",
+    "FEATURE_SIMILARITIES",
+    "FeatureModelError",
     "LR_MODES",
     "MAX_BLOCK_SIZE",
     "MAX_NUM_DISPARITIES",

@@ -6,8 +6,8 @@
 >>> right = rng.integers(0, 256, (40, 80), dtype=np.uint8)
 >>> left = np.roll(right, 6, axis=1)                  # every pixel moved 6 px: d = x_left - x_right = 6
 >>> dmap = compute_disparity(left, right, num_disparities=16, subpixel=False)
->>> float(np.nanmedian(dmap.disparity)), round(dmap.valid_fraction, 2)
-(6.0, 1.0)
+>>> float(np.nanmedian(dmap.disparity)), round(dmap.valid_fraction, 2)   # measured: not the left border's
+(6.0, 0.91)
 """
 
 from __future__ import annotations
@@ -15,16 +15,16 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Mapping
-from dataclasses import dataclass, field
 from typing import Any
 
 import cv2
 import numpy as np
 
+from stereo_classic.matching import learned
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching.params import SGMParams
 from stereo_classic.matching.postprocess import _speckle_and_fill, fill_bytes, speckle_bytes, speckle_fill_bytes
+from stereo_classic.matching.result import DisparityMap
 
 __all__ = [
     "compute_disparity",
@@ -52,115 +52,6 @@ class StereoInputError(ValueError):
 
 class MemoryBudgetError(ValueError):
     """The estimated working memory exceeds the limit; raised before anything large is allocated."""
-
-
-# --------------------------------------------------------------------------------------------------
-# result object
-# --------------------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class DisparityMap:
-    """A disparity map with the parameters that made it, per-stage timings and a validity summary.
-
-    Attributes
-    ----------
-    disparity : (H, W) float32
-        Left-view disparity in pixels, ``d = x_left - x_right``; NaN where unknown.
-    disparity_right : (H, W) float32 or None
-        Right-view disparity (pixels, integer winner-takes-all over the same sums, NaN where no
-        candidate) when ``params.right_view`` is set or the "full" left-right check computed it.
-    params : SGMParams
-        The parameters used.
-    timings_ms : dict[str, float]
-        Milliseconds per stage: "prepare" (checks + grey conversion), the matcher's stages
-        ("cost", "aggregate", "select", as reported by the kernels), "postprocess", "total".
-    validity : dict[str, int | None]
-        Pixel counts: "pixels" (H * W), "valid" (finite in ``disparity``), "unknown_matcher" (NaN
-        out of the matcher) = "no_candidate" (columns where no disparity of the range lands inside
-        the right image) + "failed_lr" + "failed_uniqueness" (exact counts from the kernels), "short_range"
-        (border pixels set unknown because they could search less than ``border_reach`` of the range),
-        "speckle_removed", "filled" (by ``fill_holes``), "border" (pixels in the image bands where the full disparity
-        range does not fit, matched with the range that does) and "border_valid".
-    filled : (H, W) bool or None
-        True where ``disparity`` holds a value filled in by ``fill_holes`` (a guess from the background
-        next to the hole, not a measurement); None when nothing was filled. Distances must come from
-        :attr:`measured_disparity`.
-    """
-
-    disparity: np.ndarray
-    disparity_right: np.ndarray | None
-    params: SGMParams
-    timings_ms: dict[str, float] = field(default_factory=dict)
-    validity: dict[str, int | None] = field(default_factory=dict)
-    filled: np.ndarray | None = None
-
-    def __post_init__(self) -> None:
-        disp = self.disparity
-        if not isinstance(disp, np.ndarray) or disp.ndim != 2 or disp.dtype != np.float32:
-            raise ValueError(f"`disparity` must be a (H, W) float32 array, got "
-                             f"{type(disp).__name__} {getattr(disp, 'shape', None)} {getattr(disp, 'dtype', None)}")
-        if np.isinf(disp).any():
-            raise ValueError("`disparity` must hold finite values or NaN (unknown), got inf")
-        right = self.disparity_right
-        if right is not None and (not isinstance(right, np.ndarray) or right.shape != disp.shape
-                                  or right.dtype != np.float32):
-            raise ValueError(f"`disparity_right` must be None or a float32 array of shape {disp.shape}, got "
-                             f"{getattr(right, 'shape', type(right).__name__)} {getattr(right, 'dtype', '')}")
-        if not isinstance(self.params, SGMParams):
-            raise ValueError(f"`params` must be an SGMParams, got {type(self.params).__name__}")
-        if not isinstance(self.timings_ms, Mapping) or not all(
-                isinstance(k, str) and isinstance(v, (int, float)) and math.isfinite(v) and v >= 0
-                for k, v in self.timings_ms.items()):
-            raise ValueError(f"`timings_ms` must map stage names to non-negative milliseconds, got {self.timings_ms!r}")
-        object.__setattr__(self, "timings_ms", {k: float(v) for k, v in self.timings_ms.items()})
-        if not isinstance(self.validity, Mapping) or not all(
-                isinstance(k, str) and (v is None or (isinstance(v, (int, np.integer)) and v >= 0))
-                for k, v in self.validity.items()):
-            raise ValueError(f"`validity` must map names to non-negative pixel counts or None, got {self.validity!r}")
-        validity = {k: (None if v is None else int(v)) for k, v in self.validity.items()}
-        n_valid = int(np.count_nonzero(np.isfinite(disp)))
-        if validity.get("valid", n_valid) != n_valid or validity.get("pixels", disp.size) != disp.size:
-            raise ValueError(f"`validity` does not describe `disparity`: it says {validity.get('valid')} valid of "
-                             f"{validity.get('pixels')}, the map has {n_valid} of {disp.size}")
-        validity["valid"] = n_valid
-        validity["pixels"] = int(disp.size)
-        object.__setattr__(self, "validity", validity)
-        filled = self.filled
-        if filled is not None:
-            if not isinstance(filled, np.ndarray) or filled.shape != disp.shape or filled.dtype != np.bool_:
-                raise ValueError(f"`filled` must be None or a bool array of shape {disp.shape}, got "
-                                 f"{getattr(filled, 'shape', type(filled).__name__)} {getattr(filled, 'dtype', '')}")
-            if np.count_nonzero(filled & np.isnan(disp)):
-                raise ValueError("`filled` marks pixels whose disparity is unknown (NaN)")
-
-    @property
-    def measured_disparity(self) -> np.ndarray:
-        """(H, W) float32: ``disparity`` with the filled pixels unknown (NaN): only what was measured."""
-        if self.filled is None or not self.filled.any():
-            return self.disparity
-        out = self.disparity.copy()
-        out[self.filled] = np.nan
-        return out
-
-    @property
-    def measured_fraction(self) -> float:
-        """Fraction (0..1) of pixels with a measured (not filled) disparity."""
-        n_filled = 0 if self.filled is None else int(self.filled.sum())
-        return (self.validity["valid"] - n_filled) / max(1, self.disparity.size)  # type: ignore[operator]
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        """(H, W) of the map."""
-        return self.disparity.shape  # type: ignore[return-value]
-
-    @property
-    def valid_mask(self) -> np.ndarray:
-        """(H, W) bool, True where the disparity is known."""
-        return np.isfinite(self.disparity)
-
-    @property
-    def valid_fraction(self) -> float:
-        """Fraction (0..1) of pixels with a known disparity."""
-        return self.validity["valid"] / max(1, self.disparity.size)  # type: ignore[operator]
 
 
 # --------------------------------------------------------------------------------------------------
@@ -361,9 +252,12 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
     height, width = int(image_shape[0]), int(image_shape[1])
     pixels = height * width
     # the kernels: row buffers (and the sum volume of 4 / 8 paths), outputs (left and right float32), cost inputs
+    channels, features = learned.memory_terms(params, height, width)  # a learned cost's features and network run
     core = kernels.memory_bytes(height, width, params.num_disparities, paths=params.paths,
-                                lr_check=params.lr_check is not None, cost=params.cost,
-                                block_size=params.block_size, threads=params.effective_threads)
+                                lr_check=params.lr_check is not None,
+                                cost="features" if params.learned else params.cost,
+                                block_size=params.block_size, threads=params.effective_threads,
+                                feature_channels=channels) + features
     conversion = _conversion_bytes((height, width), dtype)
     post = 4 * pixels  # the border columns' copy
     if params.speckle_size > 0 and params.fill_holes:
@@ -439,11 +333,15 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     _check_finite("right", right_arr)
     gray_left, gray_right = _to_gray_uint8(left_arr, right_arr)
     t1 = time.perf_counter()
+    features = None if not params.learned else learned.model_for(params).features(  # int8 unit vectors of both
+        gray_left, gray_right, normalisation=params.feature_input, threads=params.effective_threads)
+    t_features = time.perf_counter()
 
     disparity, disparity_right, core_timings = kernels.sgm_match(
-        gray_left, gray_right, cost=params.cost, min_disparity=params.min_disparity,
+        gray_left, gray_right, cost="features" if params.learned else params.cost,
+        features=features, feature_similarity=params.feature_similarity, min_disparity=params.min_disparity,
         num_disparities=params.num_disparities, block_size=params.block_size, census_window=params.census_window,
-        p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.adaptive_p2,
+        p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.effective_adaptive_p2,
         weak_texture_gain=params.weak_texture_gain,
         uniqueness=params.uniqueness / 100.0, lr_check=params.lr_check, subpixel=params.subpixel,
         threads=params.effective_threads,
@@ -472,7 +370,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     # The kernels mark NaN: pixels with no candidate at all, and those failing uniqueness or the LR check
     # (which they count exactly).
     no_candidate = int((reach == 0).sum()) * disparity.shape[0]  # no disparity of the range fits
-    timings = {"prepare": (t1 - t0) * 1e3}
+    timings = {"prepare": (t1 - t0) * 1e3, **({"features": (t_features - t1) * 1e3} if params.learned else {})}
     timings.update({k: float(v) for k, v in dict(core_timings).items() if not k.startswith("n_")})
     timings["postprocess"] = (t3 - t2) * 1e3
     timings["total"] = (t3 - t0) * 1e3
@@ -492,12 +390,14 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     if disparity_right is not None:
         disparity_right = np.asarray(disparity_right, dtype=np.float32)
     return DisparityMap(disparity=disparity, disparity_right=disparity_right, params=params,
-                        timings_ms=timings, validity=validity, filled=filled_mask)
+                        timings_ms=timings, validity=validity, filled=filled_mask,
+                        left_gray=np.array(gray_left, dtype=np.uint8, copy=True))  # for ``confidence``
 
 
 def compute_disparity(left: Any, right: Any, params: SGMParams | None = None, **overrides: Any) -> DisparityMap:
     """Disparity of a rectified stereo pair by semi-global matching (default: census + x-gradient cost, 3 paths,
-    left-right check, holes filled and marked in ``DisparityMap.filled``; see ``SGMParams``).
+    left-right check, holes filled into ``DisparityMap.filled_disparity`` and marked in ``DisparityMap.filled``, while
+    ``DisparityMap.disparity`` keeps the measured pixels only; see ``SGMParams``).
 
     Parameters
     ----------
@@ -512,7 +412,8 @@ def compute_disparity(left: Any, right: Any, params: SGMParams | None = None, **
     Returns
     -------
     DisparityMap
-        ``disparity`` (H, W) float32 pixels, ``d = x_left - x_right``, NaN where unknown.
+        ``disparity`` (H, W) float32 pixels, ``d = x_left - x_right``, NaN where unknown (measured pixels only);
+        ``filled_disparity`` the dense map with the holes filled.
 
     Raises
     ------

@@ -22,11 +22,14 @@ from dataclasses import dataclass
 from typing import Any
 
 from stereo_classic.matching._kernels import core as kernels
+from stereo_classic.matching._kernels.cost import FEATURE_SCALE
 
 __all__ = [
     "SGMParams",
     "MEMORY_LIMIT_ENV",
     "COSTS",
+    "LEARNED_COSTS",
+    "FEATURE_SIMILARITIES",
     "LR_MODES",
     "MAX_BLOCK_SIZE",
     "MAX_NUM_DISPARITIES",
@@ -42,7 +45,15 @@ __all__ = [
 MEMORY_LIMIT_ENV = "STEREO_CLASSIC_MEMORY_LIMIT"
 #: Matching costs: census + x-gradient (default), census transform + Hamming distance, or the paper's sum of
 #: absolute differences.
-COSTS = ("census+grad", "census", "sad")
+COSTS = ("census+grad", "census", "sad", "mccnn", "features")
+#: Learned costs (``stereo_classic.matching.learned``): the shipped MC-CNN, or any Siamese feature network (ONNX).
+LEARNED_COSTS = ("mccnn", "features")
+#: How learned features are compared: dot product of the unit vectors, or their L1 distance.
+FEATURE_SIMILARITIES = ("dot", "l1")
+#: Input normalisations of a feature network (``learned.FEATURE_INPUTS``).
+_FEATURE_INPUTS = ("standardize", "unit", "raw")
+#: ONNX Runtime execution providers (``learned.PROVIDERS``).
+_PROVIDERS = ("cpu", "cuda", "auto")
 #: Left-right check variants (see SGMParams.lr_mode).
 LR_MODES = ("full", "opencv")
 #: Largest accepted (odd) SAD window side.
@@ -67,6 +78,16 @@ _GRAD_P2 = 32
 # SAD defaults: OpenCV's recommendation 8 * cn * block^2 and 32 * cn * block^2 with cn = 1 (we match on grey).
 _SAD_P1_PER_PIXEL = 8
 _SAD_P2_PER_PIXEL = 32
+# Learned costs, in the kernels' units (FEATURE_SCALE per unit of 1 - <fL, fR>): MC-CNN's SGM (Zbontar & LeCun 2016)
+# uses P1 2.3 and P2 24.3 on the cost -<fL, fR>, divided by 4 where the image gradient along the path exceeds 0.08
+# (20 grey levels) on one image and by 8 where it does on both. Here: half of them (between the full penalties of
+# smooth pixels and the quarter at intensity edges) as the base, P2 divided by 1 + |I(p) - I(p - r)| along each path
+# (the kernels' edge-aware rule, ``adaptive_p2``, always on for learned costs) and, as for every cost, up to
+# ``weak_texture_gain`` times larger on weak texture: 1.15 * 25 and 12.15 * 25, rounded. Measured on the shared
+# scenes (dense bad-2 Middlebury-style / driving) against MC-CNN's flat 2.3 / 24.3 without the edge rule 10.7 / 11.5,
+# with it 6.9 / 10.4; this 7.1 / 9.4 (docs/matching.md, "Learned costs").
+_LEARNED_P1 = round(2.3 / 2 * FEATURE_SCALE)
+_LEARNED_P2 = round(24.3 / 2 * FEATURE_SCALE)
 
 
 def _is_int(value: Any) -> bool:
@@ -169,7 +190,9 @@ class SGMParams:
         Smoothness penalties for a disparity change of 1 px and of more than 1 px (``p2 > p1``).
         None uses defaults scaled to the cost: census 20 / 80 (measured best on real scenes);
         census+grad 28 / 112 (census's plus OpenCV's 8 / 32 per pixel for the gradient mean);
-        SAD ``8 * block_size**2`` / ``32 * block_size**2`` (OpenCV's rule with one channel).
+        SAD ``8 * block_size**2`` / ``32 * block_size**2`` (OpenCV's rule with one channel); learned costs 29 / 304
+        (MC-CNN's 2.3 / 24.3 halved, in the kernels' 25 units per unit of dot product; P2 always divided by the
+        intensity step along the path, as ``adaptive_p2``).
         Units are those of the cost: Hamming bits for census, raw window SAD for "sad" (the kernels
         scale SAD and the penalties together). P2 times ``weak_texture_gain`` is limited by the int16 path
         sums (census 9x7: at most 1344; census+grad 1323). See ``effective_p1`` / ``effective_p2``.
@@ -179,7 +202,19 @@ class SGMParams:
         the gradient term gives weak-texture surfaces (roads, walls) a cost that is near zero when the
         texture is absent instead of census's noise, and has no intensity term (gradients do not change with
         an exposure offset). "census" alone, or "sad", the paper's sum of absolute differences on the
-        x-Sobel + intensity/4 prefilter (OpenCV's cost). See docs/matching.md.
+        x-Sobel + intensity/4 prefilter (OpenCV's cost). "mccnn": the learned cost of the shipped MC-CNN fast
+        network (``1 - <fL, fR>`` of its features); "features": any Siamese feature network given as
+        ``feature_model``. See docs/matching.md, "Learned costs".
+    feature_model : str or None
+        Learned costs: an ONNX feature network (a path), or a shipped one by name ("mccnn-fast-dw", the default of
+        "mccnn"; "mccnn-fast-int8", the paper's fast net with int8 layers). Required for ``cost="features"``.
+    feature_input : {"standardize", "unit", "raw"}
+        Learned costs: the network's input, per image ``(I - mean) / std`` (default, MC-CNN's), ``I / 255``, or the
+        grey levels 0..255.
+    feature_similarity : {"dot", "l1"}
+        Learned costs: ``1 - <fL, fR>`` of the unit feature vectors (default) or their L1 distance over sqrt(C).
+    onnx_provider : {"cpu", "cuda", "auto"}
+        Learned costs: ONNX Runtime's execution provider ("auto": CUDA where this onnxruntime has it).
     census_window : (int, int)
         Census window (width, height), both odd, at most 64 comparison bits. Default (9, 7).
     adaptive_p2 : bool
@@ -222,8 +257,8 @@ class SGMParams:
         8.2 / 16.8; with the weak-texture penalties: keep all 7.9 / 11.8, 0.5 6.7 / 8.0).
     fill_holes : bool
         Fill unknown pixels from the background side of each row, then a 3x3 median
-        (dense output, not a measurement: ``DisparityMap.filled`` marks them and distances use only
-        ``DisparityMap.measured_disparity``). Default True.
+        (dense output, not a measurement: ``DisparityMap.filled_disparity`` holds them, ``DisparityMap.filled``
+        marks them, and ``DisparityMap.disparity`` keeps only the measured pixels). Default True.
     paths : {3, 4, 8}
         Aggregation directions: 3 = left, right, top (OpenCV MODE_SGBM_3WAY's set; default), 4 adds
         bottom, 8 adds the diagonals. Diagonal and bottom-up paths pay P1 at every row on surfaces slanted
@@ -248,11 +283,22 @@ class SGMParams:
     p2: int | None = dataclasses.field(default=None, metadata={
         "help": "penalty for larger disparity changes, > p1 (default: by cost)", "metavar": "P2"})
     cost: str = dataclasses.field(default="census+grad", metadata={
-        "help": "matching cost: census+grad (census + x-gradient), census, or sad (the paper's)",
-        "metavar": "census+grad|census|sad"})
+        "help": "matching cost: census+grad (census + x-gradient), census, sad (the paper's), mccnn (the shipped "
+                "learned cost) or features (--feature-model)",
+        "metavar": "census+grad|census|sad|mccnn|features"})
     census_window: tuple[int, int] = dataclasses.field(default=(9, 7), metadata={
         "help": "census window, odd width x odd height, at most 64 bits (cost census)", "metavar": "WxH",
         "parse": parse_census_window})
+    feature_model: str | None = dataclasses.field(default=None, metadata={
+        "help": "learned cost: an ONNX feature network (path), or mccnn-fast-dw (default of mccnn) / mccnn-fast-int8",
+        "metavar": "ONNX"})
+    feature_input: str = dataclasses.field(default="standardize", metadata={
+        "help": "learned cost: the network's input, per image standardised, I/255 or raw grey levels",
+        "choices": _FEATURE_INPUTS})
+    feature_similarity: str = dataclasses.field(default="dot", metadata={
+        "help": "learned cost: dot product of the unit features, or their L1 distance", "choices": FEATURE_SIMILARITIES})
+    onnx_provider: str = dataclasses.field(default="cpu", metadata={
+        "help": "learned cost: ONNX Runtime provider (auto: CUDA where available)", "choices": _PROVIDERS})
     adaptive_p2: bool = dataclasses.field(default=False, metadata={"help": "divide P2 by the intensity gradient"})
     weak_texture_gain: float = dataclasses.field(default=4.0, metadata={
         "help": "penalties up to this factor larger where the texture is weak (1 = the same everywhere)",
@@ -312,6 +358,7 @@ class SGMParams:
             fail("census_window", "(width, height) of odd positive integers with width * height - 1 <= 64, e.g. (9, 7)",
                  window)
         normalise("census_window", (int(window[0]), int(window[1])))
+        self._check_learned(fail, normalise)
 
         # penalties
         for field in ("p1", "p2"):
@@ -328,7 +375,7 @@ class SGMParams:
         if not _is_real(self.weak_texture_gain) or not 1 <= self.weak_texture_gain <= MAX_TEXTURE_GAIN:
             fail("weak_texture_gain", f"a number between 1 (off) and {MAX_TEXTURE_GAIN}", self.weak_texture_gain)
         normalise("weak_texture_gain", float(self.weak_texture_gain))
-        kernels.check_penalties(self.cost, self.block_size, self.census_window, p1, p2, self.weak_texture_gain)
+        kernels.check_penalties("features" if self.cost in LEARNED_COSTS else self.cost, self.block_size, self.census_window, p1, p2, self.weak_texture_gain)
         for field in ("adaptive_p2", "subpixel", "fill_holes", "right_view"):
             value = getattr(self, field)
             if not isinstance(value, bool):
@@ -368,6 +415,41 @@ class SGMParams:
                 fail("memory_limit", "None (default) or a positive number of bytes", self.memory_limit)
             normalise("memory_limit", int(self.memory_limit))
 
+    def _check_learned(self, fail, normalise) -> None:
+        for field, choices in (("feature_input", _FEATURE_INPUTS), ("feature_similarity", FEATURE_SIMILARITIES),
+                               ("onnx_provider", _PROVIDERS)):
+            value = getattr(self, field)
+            if not isinstance(value, str) or value.lower() not in choices:
+                fail(field, f"one of {', '.join(map(repr, choices))}", value)
+            normalise(field, value.lower())
+        model = self.feature_model
+        if model is not None:
+            if isinstance(model, os.PathLike):
+                model = os.fspath(model)
+            if not isinstance(model, str) or not model:
+                fail("feature_model", "None or an ONNX file path (or a shipped model's name)", self.feature_model)
+            normalise("feature_model", model)
+        if self.cost == "features" and self.feature_model is None:
+            fail("feature_model", "an ONNX feature network for cost 'features'", None)
+
+    @property
+    def learned(self) -> bool:
+        """True for a learned cost (``LEARNED_COSTS``): features from a network, see ``learned``."""
+        return self.cost in LEARNED_COSTS
+
+    @property
+    def effective_adaptive_p2(self) -> bool:
+        """P2 divided by the intensity step along each path: ``adaptive_p2``, and always for a learned cost (MC-CNN's
+        penalties drop at intensity edges; measured on the shared scenes, docs/matching.md "Learned costs")."""
+        return self.adaptive_p2 or self.learned
+
+    @property
+    def effective_feature_model(self) -> str | None:
+        """The feature network actually used: ``feature_model``, the shipped MC-CNN for "mccnn", None otherwise."""
+        if not self.learned:
+            return None
+        return self.feature_model if self.feature_model is not None else "mccnn-fast-dw"
+
     # -- derived values ---------------------------------------------------------------------
     @property
     def max_disparity(self) -> int:
@@ -381,6 +463,8 @@ class SGMParams:
             return self.p1
         if self.cost == "census+grad":
             return _CENSUS_P1 + _GRAD_P1
+        if self.cost in LEARNED_COSTS:
+            return _LEARNED_P1
         return _CENSUS_P1 if self.cost == "census" else _SAD_P1_PER_PIXEL * self.block_size**2
 
     @property
@@ -390,6 +474,8 @@ class SGMParams:
             return self.p2
         if self.cost == "census+grad":
             return _CENSUS_P2 + _GRAD_P2
+        if self.cost in LEARNED_COSTS:
+            return _LEARNED_P2
         return _CENSUS_P2 if self.cost == "census" else _SAD_P2_PER_PIXEL * self.block_size**2
 
     @property

@@ -13,7 +13,7 @@ import numpy as np
 
 from stereo_classic.matching._kernels.core import PATH_STEPS, cost_scale
 
-__all__ = ["census_reference", "cost_volume_reference", "path_reference", "sum_reference", "select_reference"]
+__all__ = ["census_reference", "cost_volume_reference", "feature_cost_reference", "path_reference", "sum_reference", "select_reference"]
 
 
 def census_reference(image: np.ndarray, census_window: tuple[int, int]) -> np.ndarray:
@@ -45,6 +45,35 @@ def _sobel_reference(image: np.ndarray) -> np.ndarray:
             g = ((at(y - 1, x + 1) - at(y - 1, x - 1)) + 2 * (at(y, x + 1) - at(y, x - 1))
                  + (at(y + 1, x + 1) - at(y + 1, x - 1)))
             out[y, x] = min(max(g, -31), 31) + 31
+    return out
+
+
+def feature_cost_reference(left_features, right_features, *, similarity="dot", min_disparity=0, num_disparities=16,
+                           p2=120) -> np.ndarray:
+    """(H, W, D) int64 learned cost from (H, C, W) int8 unit features (``learned.FeatureModel.features``):
+    ``FEATURE_SCALE * (1 - sum(qL * qR) / FEATURE_QUANT**2)`` (dot) or ``FEATURE_SCALE * sum|qL - qR| / (FEATURE_QUANT
+    * sqrt(C))`` (L1), rounded half up and clipped to [0, 2 * FEATURE_SCALE]; invalid disparities as above."""
+    from stereo_classic.matching._kernels.cost import FEATURE_QUANT, FEATURE_SCALE
+
+    H, C, W = left_features.shape
+    D = num_disparities
+    cmax = 2 * FEATURE_SCALE
+    out = np.full((H, W, D), cmax + 2 * p2 + 1, np.int64)
+    fl = left_features.astype(np.int64)
+    fr = right_features.astype(np.int64)
+    for k in range(D):
+        d = min_disparity + k
+        for x in range(W):
+            xr = x - d
+            if not 0 <= xr < W:
+                continue
+            if similarity == "dot":
+                acc = (fl[:, :, x] * fr[:, :, xr]).sum(axis=1)
+                v = FEATURE_SCALE + 0.5 - acc * (FEATURE_SCALE / FEATURE_QUANT**2)
+            else:
+                acc = np.abs(fl[:, :, x] - fr[:, :, xr]).sum(axis=1)
+                v = 0.5 + acc * (FEATURE_SCALE / (FEATURE_QUANT * np.sqrt(C)))
+            out[:, x, k] = np.floor(np.clip(v, 0, cmax)).astype(np.int64)
     return out
 
 

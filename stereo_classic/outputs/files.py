@@ -55,11 +55,16 @@ SAVE_KINDS: dict[str, str] = {
     "depth": "{name}_depth.png",
     "pfm": "{name}_disparity.pfm",
     "kitti": "{name}_disparity_kitti.png",
+    "dense": "{name}_disparity_filled.pfm",
+    "confidence": "{name}_confidence.png",
     "ply": "{name}_points.ply",
     "json": "{name}_objects.json",
 }
-#: What ``run`` saves by default: every kind but the point cloud.
-DEFAULT_SAVE: tuple[str, ...] = tuple(k for k in SAVE_KINDS if k != "ply")
+#: Kinds written only when named: the point cloud, the filled (dense, partly guessed) disparity, the confidence.
+ON_REQUEST: frozenset[str] = frozenset({"ply", "dense", "confidence"})
+#: What ``run`` saves by default: every kind but those of :data:`ON_REQUEST`. The disparity files hold measured
+#: pixels only (NaN / 0 where unknown); the filled map is ``dense``'s ``NAME_disparity_filled.pfm``.
+DEFAULT_SAVE: tuple[str, ...] = tuple(k for k in SAVE_KINDS if k not in ON_REQUEST)
 #: The objects file of a sequence: one JSON line per finished frame.
 JSONL_NAME = "objects.jsonl"
 #: The fusion parameters a user can set (command line, config file): the ones a record lists.
@@ -295,10 +300,10 @@ class FrameWriter:
     def _image_jobs(self, name: str, result: PipelineResult, rig: RectifiedRig
                     ) -> Iterable[tuple[Path, Callable[[Path], None]]]:
         save = self.kinds
-        disp = result.disparity.disparity
+        disp = result.disparity.disparity  # measured pixels only: NaN where unknown or filled
         near, far = self.depth_range
         # depth and points from measured pixels only (filled values are guesses, never distances)
-        depth = rig.depth(result.disparity.measured_disparity) if {"depth", "ply"} & save else None
+        depth = rig.depth(disp) if {"depth", "ply"} & save else None
         if "boxes" in save:
             objs = result.objects
             image = draw_boxes(result.left, objs.xyxy, box_labels(objs)) if len(objs) else result.left
@@ -314,6 +319,12 @@ class FrameWriter:
             yield self._path("depth", name), lambda p: io.write_image(p, shown)
         if "pfm" in save:
             yield self._path("pfm", name), lambda p: io.write_pfm(p, disp)
+        if "dense" in save:  # asked for by name: the holes filled from the background (guesses, not measurements)
+            filled = result.disparity.filled_disparity
+            yield self._path("dense", name), lambda p: io.write_pfm(p, filled)
+        if "confidence" in save:  # 8-bit grey, DisparityMap.confidence: 0 unknown or filled, 1..255 measured
+            conf = result.disparity.confidence
+            yield self._path("confidence", name), lambda p: io.write_image(p, conf)
         if "kitti" in save:
             # The KITTI PNG holds 0..255.996 px; anything else is stored as unknown (0), and said so.
             outside = np.isfinite(disp) & ((disp < 0) | (disp > 65535 / 256))

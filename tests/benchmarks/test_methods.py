@@ -16,7 +16,8 @@ from benchmarks.methods import (
 
 def test_matcher_variants_and_their_settings():
     methods = {m.name: m for m in stereo_classic_methods()}
-    assert list(methods) == ["sc-default", "sc-census-8", "sc-census-3", "sc-8", "sc-sad-8"]
+    assert list(methods) == ["sc-default", "sc-mccnn", "sc-census-8", "sc-census-3", "sc-8", "sc-sad-8"]
+    assert methods["sc-mccnn"].params["cost"] == "mccnn"
     default = sc.SGMParams()
     assert methods["sc-default"].params["cost"] == default.cost and methods["sc-default"].params["paths"] == default.paths
     old = methods["sc-census-8"].params
@@ -48,10 +49,10 @@ def test_output_views_reads_arrays_tuples_and_maps():
     assert output_views(a)[0] is a and output_views(a)[1] is a
     assert output_views((a, m))[1] is m
 
-    class Map:
-        disparity, measured_disparity = a, m
+    class Map:  # a DisparityMap: the measured pixels in disparity, the dense output in filled_disparity
+        filled_disparity, disparity = a, m
 
-    assert output_views(Map())[1] is m
+    assert output_views(Map())[0] is a and output_views(Map())[1] is m
 
 
 @pytest.mark.parametrize(

@@ -24,7 +24,7 @@ def test_write_report_has_every_section_in_md_and_html(tmp_path):
         assert title in md, title
     assert md.index("Middlebury-style (1 scene") < md.index("driving (2 scene")  # FAMILIES order
     # the three views explained, and that the matcher's valid view reads measured pixels only
-    assert "**dense**" in md and "**ukb**" in md and "measured_disparity" in md and "fill_holes" in md
+    assert "**dense**" in md and "**ukb**" in md and "filled_disparity" in md and "fill_holes" in md
     # per-scene bad-2 tables exist for each view; driving scenes under their short names
     for view in ("dense", "ukb", "valid"):
         assert f"driving: bad-2 % per scene, view {view}" in md

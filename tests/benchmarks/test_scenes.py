@@ -26,6 +26,10 @@ from benchmarks.scenes import (
         ("selfie", "/d/oakd", "indoor"),
         ("a", "/home/kitti_fan/middlebury2014/x", "Middlebury-style"),  # the nearest folder decides
         ("a", "/tmp/b", "other"),
+        ("Baby1", "/d/middlebury2005_2006/Baby1", "Middlebury 2005/2006"),
+        ("sawtooth", "/d/middlebury2001/sawtooth", "Middlebury 2001 planar"),
+        ("venus", "/d/middlebury2001/venus", "Middlebury-style"),  # one of the six developer scenes
+        ("barn1", "/d/elsewhere/barn1", "other"),  # the planar rows need the Middlebury 2001 folder
     ],
 )
 def test_scene_family(name, source, family):
@@ -44,6 +48,15 @@ def test_bench_scene_family_derived_or_checked():
 def test_short_names():
     assert short_name("2018-07-09-16-11-56_2018-07-09-16-11-59-004") == "16-11-59-004"
     assert short_name("cones") == "cones" and short_name("a_b") == "a_b"
+
+
+def test_shared_middlebury_families_keep_the_six_developer_scenes(shared_data):
+    families: dict[str, list[str]] = {}
+    for s in load_scenes(shared_data):
+        families.setdefault(s.family, []).append(s.name.lower())
+    assert sorted(families["Middlebury-style"]) == ["adirondack", "cones", "motorcycle", "teddy", "tsukuba", "venus"]
+    assert sorted(families["Middlebury 2001 planar"]) == ["barn1", "barn2", "poster", "sawtooth"]
+    assert len(families["Middlebury 2005/2006"]) == 10
 
 
 def test_shared_scenes_have_their_families(shared_data):

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from stereo_classic.checks import (
+    PAIR_CLEAR,
     SATURATION_WARN,
     FrameChecker,
     FrameWarning,
@@ -83,7 +84,9 @@ def test_a_frames_checks_share_its_half_size_images(near_scene, monkeypatch):
     try:
         resized.clear()
         alone = checker.check_range(left, right, r.disparity, r.objects, rig, loc.fusion, loc.seed)
-        assert checker.check_pair(left, right, r.disparity) is None and len(resized) == 4  # their own two each
+        assert len(resized) == 2  # its own two
+        assert checker.check_pair(left, right, r.disparity) is None and len(resized) == 2  # cleared by the match
+        assert checker.check_pair(left, right, _blank(left)) is None and len(resized) == 4  # looked: its own two
     finally:
         checker.close()
     assert alone[0].status == r.objects.status and [alone[1].code] == [w.code for w in r.warnings]
@@ -227,9 +230,10 @@ def test_a_frame_is_looked_at_once(near_scene, monkeypatch):
     with Localizer(rig, FixedBoxes([BOX]), {"num_disparities": 48, "fill_holes": False}) as loc:
         loc(left, right)  # compiled, allocated
         calls = []
-        matcher = loc.checker._matcher
-        real = matcher.compute
-        monkeypatch.setattr(matcher, "compute", lambda *a, **k: calls.append(1) or real(*a, **k))
+        for matcher in (loc.checker._matcher, loc.checker._range_matcher):  # both looks, whichever was made
+            if matcher is not None:
+                monkeypatch.setattr(matcher, "compute",
+                                    lambda *a, _real=matcher.compute, **k: calls.append(1) or _real(*a, **k))
         r = loc(left, right)
     assert r.objects.status == ("beyond_range",) and len(calls) == 1  # both checks looked, one match
 
@@ -248,3 +252,66 @@ def test_the_range_check_reads_the_given_orders_side_of_the_look():
     known = np.isfinite(wide[0])
     assert not known[:2 * 23].any() and known[2 * 23:2 * 30].all() and not known[2 * 30:].any()
     np.testing.assert_array_equal(wide[0, 2 * 23:2 * 30], 60.0)   # full-size pixels: twice the half-size ones
+
+
+def test_the_frames_own_match_clears_real_pairs_only(shared_data):
+    """The pair check reads the frame's own match first: on every shared scene the answer is what the look alone
+    gives (quiet as given, swapped when swapped), no swapped pair and no pair of unrelated images is cleared by the
+    match, and the KITTI pair is (its frames skip the look)."""
+    from stereo_classic.datasets import iter_scenes
+    from stereo_classic.matching import StereoMatcher
+
+    matchers: dict[int, StereoMatcher] = {}
+
+    def check(left, right, num):
+        matcher = matchers.setdefault(num, StereoMatcher(SGMParams(num_disparities=num)))
+        checker = FrameChecker(matcher.params)
+        try:
+            dmap = matcher.compute(left, right)
+            return checker.given_share(dmap), checker.check_pair(left, right, dmap)
+        finally:
+            checker.close()
+
+    scenes = list(iter_scenes(shared_data))
+    loud, cleared_swaps, missed, cleared = [], [], [], []
+    for scene in scenes:
+        share, warning = check(scene.left, scene.right, _range(scene))
+        if warning is not None:
+            loud.append(scene.name)
+        if share >= PAIR_CLEAR:
+            cleared.append(scene.name)
+        share, warning = check(scene.right, scene.left, _range(scene))
+        if share >= PAIR_CLEAR:
+            cleared_swaps.append(scene.name)
+        if warning is None or warning.code != "swapped_pair":
+            missed.append(scene.name)
+    assert loud == [] and cleared_swaps == [] and missed == []
+    assert "kitti_object_pair" in cleared and len(cleared) >= 20
+    oakd = [s for s in scenes if s.left.shape[:2] == (480, 640)]
+    assert len(oakd) == 12
+    for a, b in zip(oakd[::2], oakd[1::2]):  # a left image with another scene's right one
+        share, warning = check(a.left, b.right, 64)
+        assert share < PAIR_CLEAR and warning is not None and warning.code == "pair_mismatch", (a.name, b.name)
+    for s in oakd:  # rows that do not correspond: never cleared, the look decides (as before)
+        share, _ = check(s.left, np.roll(s.right, 15, axis=0), 64)
+        assert share < PAIR_CLEAR, s.name
+    for matcher in matchers.values():
+        matcher.release()
+
+
+@pytest.mark.parametrize("options", [{"lr_check": None}, {"lr_check": 2.0}, {"lr_mode": "opencv"}])
+def test_a_match_without_the_full_1px_check_clears_nothing(near_scene, options):
+    """Pixels not checked left-right within 1 px in full need not be consistent: the look decides."""
+    from stereo_classic.matching import StereoMatcher
+
+    left, right, _ = near_scene
+    matcher = StereoMatcher(SGMParams(num_disparities=96, **options))
+    checker = FrameChecker(matcher.params)
+    try:
+        dmap = matcher.compute(left, right)
+        assert checker.given_share(dmap) is None
+        halves = checker.halves(left, right)
+        assert checker.check_pair(left, right, dmap, halves) is None and halves.looked and not halves.cleared
+    finally:
+        checker.close()
+        matcher.release()

@@ -161,3 +161,48 @@ def test_a_failing_write_stops_the_run_with_its_error():
     proc = type("P", (), {"process_ref": staticmethod(lambda ref: ref)})()
     with pytest.raises(OSError, match="disk full"):
         _run_overlapped(iter(range(5)), proc, take)
+
+
+def test_reading_ahead_writes_the_same_bytes_and_reads_in_its_own_thread(tmp_path, pairs, monkeypatch):
+    """The next frame is read in the reader thread while one is processed; the folder is the same byte for byte as
+    reading each frame when processed, and a frame that cannot be read is still that frame's failure."""
+    import threading
+
+    from stereo_classic import sources
+
+    files, rig = pairs
+    bad = (tmp_path / "c_L.png", tmp_path / "c_R.png")
+    bad[0].write_bytes(files[0][0].read_bytes())
+    bad[1].write_bytes(b"not a png")
+    last = (tmp_path / "d_L.png", tmp_path / "d_R.png")
+    for src, dst in zip(files[0], last):
+        dst.write_bytes(src.read_bytes())
+    files = files + [bad, last]
+    readers = []
+    real = sources._read_pair
+    monkeypatch.setattr(sources, "_read_pair",
+                        lambda *a: readers.append(threading.current_thread().name) or real(*a))
+    outs = {}
+    for ahead in (False, True):
+        readers.clear()
+        out = tmp_path / f"ahead_{ahead}"
+        summary = run_source(PairSource(files), FrameWriter(out, sequence=True),
+                             params_for=_params, rig=rig, on_error="skip", read_ahead=ahead)
+        assert (summary.frames, [name for name, _ in summary.failed]) == (3, ["c_L"])
+        assert all(n.startswith("stereo-reader") == ahead for n in readers) and len(readers) == 4
+        outs[ahead] = {p.name: p.read_bytes() for p in sorted(out.iterdir())}
+    assert outs[True] == outs[False] and len(outs[True]) > 3
+
+
+def test_read_ahead_on_the_command_line_writes_the_same_files(tmp_path, pairs):
+    files, rig = pairs
+    calib_file = tmp_path / "rig.yaml"
+    rig.to_opencv_yaml(calib_file)
+    outs = {}
+    for flag in ("--read-ahead", "--no-read-ahead"):
+        out = tmp_path / flag
+        argv = ["-q", "run", "--left", *[str(p[0]) for p in files], "--right", *[str(p[1]) for p in files],
+                "--calib", str(calib_file), "--model", "none", "--num-disparities", "48", flag, "-o", str(out)]
+        assert main(argv) == 0
+        outs[flag] = {p.name: p.read_bytes() for p in sorted(out.iterdir()) if p.name != ".stereo_classic.lock"}
+    assert outs["--read-ahead"] == outs["--no-read-ahead"] and "objects.jsonl" in outs["--read-ahead"]

@@ -44,6 +44,8 @@ from numba import njit
 from stereo_classic.matching._kernels.cost import (
     CENSUS,
     CENSUS_GRAD,
+    FEATURE_SCALE,
+    FEATURES,
     GRAD_SHIFT,
     SAD,
     SAD_PIXEL_MAX,
@@ -74,7 +76,7 @@ THREE_PATHS = 0x13  # left, top, right (OpenCV MODE_SGBM_3WAY's directions)
 
 _INT16_MAX = 32767
 _SENTINEL = 16383  # padding at both disparity ends of every path vector: "no neighbour"
-_KIND = {"census": CENSUS, "sad": SAD, "census+grad": CENSUS_GRAD}
+_KIND = {"census": CENSUS, "sad": SAD, "census+grad": CENSUS_GRAD, "features": FEATURES}
 
 
 # ----------------------------------------------------------------------------------------------
@@ -231,6 +233,8 @@ def cost_scale(cost: str, block_size: int, census_window: tuple[int, int], p2: i
         return 0, census_bits(census_window)
     if cost == "census+grad":  # Hamming bits + the window mean of |Sobel_x difference| (at most 2 * SOBEL_CAP)
         return 0, census_bits(census_window) + (SAD_PIXEL_MAX - 255 // 4)
+    if cost == "features":  # FEATURE_SCALE * (1 - <fL, fR>), in [0, 2 * FEATURE_SCALE]
+        return 0, 2 * FEATURE_SCALE
     raw = block_size * block_size * SAD_PIXEL_MAX
     shift = 0
     while ((raw >> shift) + 3 * (p2 >> shift) + 1) * 8 > _INT16_MAX:

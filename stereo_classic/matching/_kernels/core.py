@@ -49,6 +49,7 @@ from stereo_classic.matching._kernels.cost import (
     sobel_rows,
     weak_texture_scale,
 )
+from stereo_classic.matching._kernels.features import FEATURES, check_features, with_features
 from stereo_classic.matching._kernels.rowpass import (
     RowPassBuffers,
     StripePlan,
@@ -178,14 +179,15 @@ def _reset_buffers(b: ThreadBuffers, D: int) -> None:
         M[:] = 0
 
 
-def _row_cost_buffers(W: int, D: int, kind: int, h: int) -> RowCostBuffers:
-    grad = kind != CENSUS
+def _row_cost_buffers(W: int, D: int, kind: int, h: int, channels: int = 0) -> RowCostBuffers:
+    grad, feat = kind not in (CENSUS, FEATURES), kind == FEATURES  # feat: right rows and channel sums, float32
     L = 2 * (W + 2 * h + D - 1)  # two reversed right rows
     return RowCostBuffers(
         colsum=np.zeros((W + 2 * h) * D if grad else 1, np.int16), hsum=np.zeros(D, np.int16),
-        rrev=np.zeros(4 * (W + D - 1) if kind != SAD else 1, np.uint16),
+        rrev=np.zeros(4 * (W + D - 1) if kind not in (SAD, FEATURES) else 1, np.uint16),
         srev=np.zeros(L if grad else 1, np.int16), irev=np.zeros(L if kind == SAD else 1, np.int16),
-        floor=np.zeros(D, np.int16))
+        floor=np.zeros(D, np.int16), frev=np.zeros(max(1, channels) * (W + D - 1) if feat else 1, np.float32),
+        facc=np.zeros(D if feat else 1, np.float32))
 
 
 def _set_floor(bufs: RowCostBuffers, settings: CostSettings) -> None:
@@ -194,7 +196,9 @@ def _set_floor(bufs: RowCostBuffers, settings: CostSettings) -> None:
     bufs.floor[settings.num_disparities:] = settings.invalid_cost
 
 
-def _row_cost_bytes(W: int, D: int, kind: int, h: int) -> int:
+def _row_cost_bytes(W: int, D: int, kind: int, h: int, channels: int = 0) -> int:
+    if kind == FEATURES:
+        return 4 * max(1, channels) * (W + D - 1) + 4 * D + 2 * D + 10
     grad = kind != CENSUS
     L = 2 * (W + 2 * h + D - 1)
     return (2 * (W + 2 * h) * D if grad else 2) + 2 * D + (8 * (W + D - 1) if kind != SAD else 2) + \
@@ -262,7 +266,7 @@ def scratch_allocator(workspace: Workspace | None) -> Callable[[str, tuple[int, 
 
 
 def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 8, lr_check: bool = True,
-                 cost: str = "census", block_size: int = 5, threads: int = 2) -> int:
+                 cost: str = "census", block_size: int = 5, threads: int = 2, feature_channels: int = 0) -> int:
     """Bytes ``sgm_match`` allocates for an image of this size, without the input images.
 
     4 and 8 paths: the int16 sum volume (2 * H * W * D) dominates; the rest is the two float32 outputs, the
@@ -270,7 +274,7 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     2 * (D + 2) * (3 W + 3 H) bytes per worker thread, at most one worker per stripe). 3 paths (the one-sweep
     kernel): no volume, W x D row buffers, the costs of WARMUP_ROWS rows and the top path's skewed vectors per
     worker (about 2 * D * (20 W + H) bytes). ``lr_check`` does not change it. D is the padded number
-    (``padded_disparities``).
+    (``padded_disparities``). ``cost="features"``: int8 features (2 * C * H * W, C = ``feature_channels``).
     """
     H, W, D = int(height), int(width), padded_disparities(num_disparities, paths)
     kind = _KIND.get(cost, CENSUS)
@@ -279,18 +283,20 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     workers = max(1, min(int(threads), len(stripes(H))))  # one set of row buffers per worker thread
     total = 2 * 4 * H * W  # left and right disparity
     total += 7 * H * W  # the penalty factors (uint8) and the int16 gradient and int32 sums they are made from
-    if kind != SAD:  # census codes, four uint16 quarters per pixel, and the two padded images they are made from
+    if kind == FEATURES:
+        total += 2 * int(feature_channels) * H * W
+    elif kind != SAD:  # census codes, four uint16 quarters per pixel, and the two padded images they are made from
         total += 2 * 8 * H * W + 2 * (H + 20) * (W + 20)
-    if kind != CENSUS:  # prefiltered images (gradient; and intensity for SAD)
+    if kind not in (CENSUS, FEATURES):  # prefiltered images (gradient; and intensity for SAD)
         total += 2 * 2 * H * W * (2 if kind == SAD else 1) + 2 * (H + 2) * (W + 2) * 2
     if paths == 3:
-        return total + workers * (row_pass_bytes(H, W, D, WARMUP_ROWS) + _row_cost_bytes(W, D, kind, h))
+        return total + workers * (row_pass_bytes(H, W, D, WARMUP_ROWS) + _row_cost_bytes(W, D, kind, h, feature_channels))
     total += 2 * (H + workers) * W * D  # sum volume with one scratch row per worker
     slots = 2 + (W + H + 1) + (W + 2 * H + 1) + (W + 2)
     per_thread = 2 * E * slots + 2 * slots  # path vectors + minima
     per_thread += 2 * W * D + 2 * W * D + 2 * W + 2 * D + 2 * 2 * (W + D) + 8 * W  # row costs, row sums and
     # minima, k index, right view, best
-    per_thread += _row_cost_bytes(W, D, kind, h)  # the cost state
+    per_thread += _row_cost_bytes(W, D, kind, h, feature_channels)  # the cost state
     return total + workers * per_thread
 
 
@@ -299,13 +305,15 @@ def _placeholder(dtype, ndim: int) -> np.ndarray:
     return np.zeros((1,) * ndim, dtype)
 
 
-def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, weak_texture_gain=1.0) -> CostImages:
+def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, weak_texture_gain=1.0,
+                  features=None) -> CostImages:
     """The cost's input images of both views: census quarters and / or the x-Sobel channel (with the image itself
     for SAD), made in stripes of rows of both images on ``threads`` workers, into arrays of ``workspace``; and the
-    left image's per-pixel penalty factors (``weak_texture_scale``)."""
+    left image's per-pixel penalty factors (``weak_texture_scale``). ``cost="features"``: ``features`` is the pair
+    (left, right) of (H, C, W) int8 arrays the row cost reads (``learned.FeatureModel.features``)."""
     H, W = left.shape
     w, h = census_window
-    census, sobel = cost != "sad", cost != "census"
+    census, sobel = cost in ("census", "census+grad"), cost in ("sad", "census+grad")
 
     scratch = scratch_allocator(workspace)
 
@@ -338,15 +346,17 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
         if sobel:
             sobel_rows(padded_s, y0, y1, sob)
 
-    tasks = [(0, None)] + [(side, band) for side in (0, 1) for band in stripes(H)]
+    tasks = [(0, None)] + [(side, band) for side in (0, 1) for band in stripes(H) if census or sobel]
     run_tasks(tasks, workers_for(threads, len(tasks)), rows)
     (_, lcode, _, lsob, lint), (_, rcode, _, rsob, rint) = views
-    return CostImages(left, lcode, rcode, lsob, lint, rsob, rint, scale)
+    feats = check_features(features, H, W) if cost == "features" else ()  # else the placeholders
+    return CostImages(left, lcode, rcode, lsob, lint, rsob, rint, scale, *feats)
 
 
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
          path_mask, adaptive_p2, uniqueness, lr_check, subpixel, threads, select=True, keep_sums=False,
-         workspace=None, return_right=False, lr_mode="full", scratch_output=False, weak_texture_gain=1.0):
+         workspace=None, return_right=False, lr_mode="full", scratch_output=False, weak_texture_gain=1.0,
+         features=None, feature_similarity="dot"):
     if cost not in _KIND:
         raise ValueError(f"`cost` must be one of {sorted(_KIND)}, got {cost!r}")
     check_penalties(cost, block_size, census_window, int(p1), int(p2), weak_texture_gain)
@@ -365,16 +375,17 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     cost_settings = CostSettings(kind=kind, min_disparity=dmin, half_block=h, shift=shift, cmax=cmax,
                                  invalid_cost=cmax + 2 * (p2_top >> shift) + 1, num_disparities=n_disp,
                                  grad_mul=grad_mul(block_size) if cost == "census+grad" else 0)
+    cost_settings, channels = with_features(cost_settings, features, feature_similarity, H, W)
     timings = {}
 
     t0 = time.perf_counter()
-    images = _prepare_cost(left, right, cost, census_window, threads, workspace, weak_texture_gain)
+    images = _prepare_cost(left, right, cost, census_window, threads, workspace, weak_texture_gain, features)
     t1 = time.perf_counter()
     timings["cost"] = (t1 - t0) * 1e3
 
     bands = stripes(H)
     n_workers = workers_for(threads, len(bands))
-    key = (one_sweep, bool(keep_sums), H, W, D, kind, h, n_workers)
+    key = (one_sweep, bool(keep_sums), H, W, D, kind, h, n_workers, channels)
     if workspace is not None and workspace.fits(*key):
         S, bufs = workspace.S, workspace.bufs
     else:
@@ -383,7 +394,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
         else:
             S = np.empty((H + n_workers, W, D), np.int16)  # + one scratch row per worker for warm-up rows
         # per worker: the cost state and the kernel's row buffers
-        bufs = [(_row_cost_buffers(W, D, kind, h),
+        bufs = [(_row_cost_buffers(W, D, kind, h, channels),
                  row_pass_buffers(H, W, D, WARMUP_ROWS) if one_sweep else _thread_buffers(H, W, D))
                 for _ in range(n_workers)]
         if workspace is not None:
@@ -474,7 +485,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
               p1: int = 20, p2: int = 80, paths: int = 8, adaptive_p2: bool = False,
               uniqueness: float = 0.0, lr_check: float | None = 1.0, subpixel: bool = True,
               threads: int = 2, workspace: Workspace | None = None, return_right: bool = False,
-              lr_mode: str = "full", scratch_output: bool = False, weak_texture_gain: float = 1.0
+              lr_mode: str = "full", scratch_output: bool = False, weak_texture_gain: float = 1.0,
+              features: tuple[np.ndarray, np.ndarray] | None = None, feature_similarity: str = "dot"
               ) -> tuple[np.ndarray, np.ndarray | None, dict[str, float]]:
     """Semi-global matching of a rectified grey pair (inputs already validated by the caller).
 
@@ -509,6 +521,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
         LR check on; otherwise about 5 % more time).
     scratch_output : the left disparity may be an array of ``workspace``, overwritten by its next call (for a
         caller that makes a new map of it anyway).
+    features, feature_similarity : ``cost="features"``: the int8 unit features of both views, (H, C, W) each
+        (``learned.FeatureModel.features``), and "dot" or "l1" (``features.feature_cost_terms``: the cost units).
 
     Returns
     -------
@@ -540,7 +554,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
                                    subpixel=subpixel, threads=threads, workspace=workspace,
                                    return_right=return_right, lr_mode=lr_mode,
                                    scratch_output=scratch_output and workspace is not None,
-                                   weak_texture_gain=weak_texture_gain)
+                                   weak_texture_gain=weak_texture_gain, features=features,
+                                   feature_similarity=feature_similarity)
     return disp, dispR, timings
 
 
@@ -557,7 +572,7 @@ def sum_volume(left: np.ndarray, right: np.ndarray, *, path_mask: int = ALL_PATH
 
 def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_disparity: int = 0,
                 num_disparities: int = 64, block_size: int = 5, census_window: tuple[int, int] = (9, 7),
-                p2: int = 80) -> np.ndarray:
+                p2: int = 80, features=None, feature_similarity: str = "dot") -> np.ndarray:
     """(H, W, D) int16 matching cost, entry [y, x, k] for disparity min_disparity + k.
 
     Exactly the costs the passes use (``cost.row_cost``, row by row; SAD scaled by ``cost_scale``, which depends on
@@ -576,9 +591,10 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
                             half_block=block_size // 2 if kind != CENSUS else 0, shift=shift, cmax=cmax,
                             invalid_cost=cmax + 2 * (int(p2) >> shift) + 1, num_disparities=n_disp,
                             grad_mul=grad_mul(block_size) if cost == "census+grad" else 0)
-    images = _prepare_cost(left, right, cost, census_window)
+    settings, channels = with_features(settings, features, feature_similarity, H, W)
+    images = _prepare_cost(left, right, cost, census_window, features=features)
     out = np.empty((H, W, D), np.int16)
-    bufs = _row_cost_buffers(W, D, kind, settings.half_block)
+    bufs = _row_cost_buffers(W, D, kind, settings.half_block, channels)
     _set_floor(bufs, settings)
     cost_volume_kernel(images, settings, bufs, out)
     return np.ascontiguousarray(out[:, :, :n_disp])

@@ -24,12 +24,14 @@ import numpy as np
 from numba import njit
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
+from stereo_classic.matching._kernels.features import FEATURE_QUANT, FEATURE_SCALE, FEATURES, feature_row_cost
 from stereo_classic.matching._kernels.intrinsics import (
     absdiff16,
     add16,
     lshr16,
     max16,
     min16,
+    mulhi16,
     mulshr16,
     popxor16,
     shr16,
@@ -41,6 +43,9 @@ __all__ = [
     "SAD_PIXEL_MAX",
     "CENSUS",
     "CENSUS_GRAD",
+    "FEATURES",
+    "FEATURE_SCALE",
+    "FEATURE_QUANT",
     "GRAD_SHIFT",
     "SAD",
     "CostImages",
@@ -54,6 +59,7 @@ __all__ = [
     "sad_prefilter",
     "sobel_rows",
     "cost_volume_kernel",
+    "feature_row_cost",
     "NoAliasCompiler",
     "TEXTURE_REFERENCE",
     "TEXTURE_WINDOW",
@@ -103,6 +109,9 @@ class CostImages(NamedTuple):
     penalty_scale : (H, W) uint8
         Per pixel, the factor of P1 and P2 in sixteenths (16 = 1), ``weak_texture_scale``: the aggregation
         uses ``(P * scale + 8) >> 4`` at the pixel.
+    left_features, right_features : (H, C, W) int8
+        ``FEATURES``: the quantised unit feature vectors of each view, one image row per channel; (1, 1, 1)
+        otherwise.
     """
 
     left: np.ndarray
@@ -113,6 +122,8 @@ class CostImages(NamedTuple):
     right_sobel: np.ndarray
     right_intensity: np.ndarray
     penalty_scale: np.ndarray
+    left_features: np.ndarray = np.zeros((1, 1, 1), np.int8)
+    right_features: np.ndarray = np.zeros((1, 1, 1), np.int8)
 
 
 class CostSettings(NamedTuple):
@@ -137,6 +148,11 @@ class CostSettings(NamedTuple):
         blocks); the indices past ``num_disparities`` get ``invalid_cost``, like a match outside the right image.
     grad_mul : int
         ``CENSUS_GRAD``: ``round(2**GRAD_SHIFT / block_size**2)``, the gradient window sum to its mean; 0 otherwise.
+    feature_l1 : int
+        ``FEATURES``: 1 = L1 distance of the feature vectors, 0 = dot product.
+    feature_base, feature_mul : float
+        ``FEATURES``: the cost is ``clip(feature_base + acc * feature_mul, 0, cmax)`` truncated, ``acc`` the
+        channel sum of the int8 products (dot) or absolute differences (L1), exact in float32.
     """
 
     kind: int
@@ -147,6 +163,9 @@ class CostSettings(NamedTuple):
     invalid_cost: int
     num_disparities: int
     grad_mul: int = 0
+    feature_l1: int = 0
+    feature_base: float = 0.0
+    feature_mul: float = 0.0
 
 
 def census_bits(census_window: tuple[int, int]) -> int:
@@ -260,6 +279,10 @@ class RowCostBuffers(NamedTuple):
     floor : (D,) int16
         0 for the disparities of the range, the invalid cost for the padding past it (``CostSettings``): the cost
         of index k is at least ``floor[k]`` (one vector max, instead of a remainder loop per pixel).
+    frev : (C * (W + D - 1),) float32
+        ``FEATURES``: the right row's features, reversed, one run per channel ((1,) otherwise).
+    facc : (D,) float32
+        ``FEATURES``: the channel sums of the current pixel ((1,) otherwise).
     """
 
     colsum: np.ndarray
@@ -268,6 +291,8 @@ class RowCostBuffers(NamedTuple):
     srev: np.ndarray
     irev: np.ndarray
     floor: np.ndarray
+    frev: np.ndarray = np.zeros(1, np.float32)
+    facc: np.ndarray = np.zeros(1, np.float32)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -393,6 +418,10 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     match falls outside the right image get ``invalid_cost``, and so do the padding indices ``k >=
     cost.num_disparities`` (``crow`` holds ``len(crow) // W`` per pixel).
     """
+    if cost.kind == FEATURES:  # learned features: a cost of their own (``feature_row_cost``)
+        feature_row_cost(images.left_features, images.right_features, cost, y, bufs.frev, bufs.facc, bufs.floor,
+                         crow)
+        return
     lcode = images.left_code
     rcode = images.right_code
     lsob = images.left_sobel
@@ -422,6 +451,12 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     cmax = np.int16(cost.cmax)
     gmul = np.int16(cost.grad_mul)
     gshift = np.int16(GRAD_SHIFT)
+    # (sum * grad_mul) >> GRAD_SHIFT == (sum * (grad_mul << (16 - GRAD_SHIFT))) >> 16 exactly while the scaled
+    # multiplier fits 16 bits (every block size but 1): the high half of a 16-bit product (one vpmulhuw for 32
+    # lanes, not two widened 32-bit multiplies and a narrowing), measured about a third of the gradient term.
+    gmul_hi = cost.grad_mul << (16 - GRAD_SHIFT)
+    high = gmul_hi < 65536
+    ghi = np.int16((gmul_hi - 65536 if gmul_hi >= 32768 else gmul_hi) if high else 0)  # its 16 bits, as int16
     nrr = W + D - 1
     if kind != SAD:  # census: four 16-bit quarters per code (vpopcntw), all in int16 lanes
         for j in range(nrr):  # rrev[q * nrr + j] = quarter q of the right code at column clamp(W - 1 - dmin - j)
@@ -430,12 +465,14 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
                 rrev[q * nrr + j] = rcode[y, c, q]
     for x in range(W):
         cb = x * D
-        if grad:  # the window sum of the pixel: hsum over the column sums x - h .. x + h
+        bin_ = (x + 2 * h) * D
+        bout = (x - 1) * D
+        # census + grad past the first column moves the window sum on in its cost loop (one pass over D, below)
+        fused = grad and high and kind != SAD and x > 0
+        if grad and not fused:  # the window sum of the pixel: hsum over the column sums x - h .. x + h
             if x == 0:
                 sad_hsum_init(hsum, colsum, 0, h, D)
             else:
-                bin_ = (x + 2 * h) * D
-                bout = (x - 1) * D
                 for k in range(D):
                     hsum[k] = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
         if kind == SAD:
@@ -450,7 +487,21 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
         j1 = j0 + nrr
         j2 = j1 + nrr
         j3 = j2 + nrr
-        if grad:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT, in 32 bits
+        if fused:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT
+            for k in range(D):
+                hs = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
+                hsum[k] = hs
+                crow[_U(cb + k)] = max16(add16(
+                    add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                          add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)]))),
+                    mulhi16(hs, ghi)), floor[k])
+        elif grad and high:  # the first column: the window sum made above
+            for k in range(D):
+                crow[_U(cb + k)] = max16(add16(
+                    add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                          add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)]))),
+                    mulhi16(hsum[k], ghi)), floor[k])
+        elif grad:  # the same in 32-bit products (block size 1: grad_mul is 2 ** GRAD_SHIFT)
             for k in range(D):
                 crow[_U(cb + k)] = max16(add16(
                     add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),

@@ -223,6 +223,8 @@ def test_side_by_side_video(tmp_path, capsys):
     assert main(argv) == 0
     err = capsys.readouterr().err
     assert "3 frame(s)" in err and "frames/s" in err
+    rates = [line for line in err.splitlines() if "frames/s" in line]  # one rate, saying what it measures
+    assert len(rates) == 1 and "wall clock of the whole frame loop" in rates[0]
     names = [json.loads(line)["frame"] for line in (out / "objects.jsonl").read_text().splitlines()]
     assert names == ["frame_000000", "frame_000001", "frame_000002"]
 

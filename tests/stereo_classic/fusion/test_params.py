@@ -16,11 +16,11 @@ from tests.helpers.scenes import make_rig, planted_scene
 
 _DEFAULTS = dict(method="ransac", box_shrink=0.2, depth_range=(0.3, 80.0), min_pixels=20, tolerance_px=1.0,
                  near_support=0.5, centre_sigma=0.25, grow_density=0.1, max_clusters=3, max_iterations=256,
-                 max_samples=10000, occluder_ratio=1.5, occluder_offset=0.25)
+                 max_samples=10000, occluder_ratio=1.5, occluder_offset=0.25, ground_contact=True)
 #: The fields that are `run` flags today, with their argparse metavar.
 _FLAGS = {"method": None, "box_shrink": "F", "depth_range": ("NEAR", "FAR"), "min_pixels": "N",
           "tolerance_px": "PX", "near_support": "F", "centre_sigma": "F", "grow_density": "F",
-          "occluder_ratio": "R", "occluder_offset": "F"}
+          "occluder_ratio": "R", "occluder_offset": "F", "ground_contact": None}
 
 
 # --- smoke / defaults --------------------------------------------------------------------------------

@@ -17,7 +17,7 @@ from tests.helpers import walk_scenes as ws
 
 def _scene(boxes, pitch, roll=0.0, height=1.3):
     left, right, _, rig = ws.render(boxes, supersample=1, cam_height=height, pitch_deg=pitch, roll_deg=roll)
-    return left, rig, sc.compute_disparity(left, right, num_disparities=64).measured_disparity
+    return left, rig, sc.compute_disparity(left, right, num_disparities=64).disparity
 
 
 def test_gravity_conventions_match_the_ground_plane():
@@ -124,7 +124,7 @@ def _oakd(shared_data, name):
     folder = shared_data / "oakd"
     rig = calib.load_rig(folder / "stereodemo_calibration.json")
     left, right = read_image(folder / f"{name}_left.png"), read_image(folder / f"{name}_right.png")
-    return left, rig, sc.compute_disparity(left, right, num_disparities=64).measured_disparity
+    return left, rig, sc.compute_disparity(left, right, num_disparities=64).disparity
 
 
 @pytest.mark.parametrize("name", _FLOORS)
@@ -189,7 +189,7 @@ def test_real_driving_frames_vertical_lines_agree_with_the_road(shared_data):
 
     angles = []
     for scene in iter_drivingstereo(shared_data / "drivingstereo"):
-        measured = sc.compute_disparity(scene.left, scene.right, num_disparities=96).measured_disparity
+        measured = sc.compute_disparity(scene.left, scene.right, num_disparities=96).disparity
         g = estimate_gravity(scene.left, scene.rig, measured=measured)
         if g is not None:
             angles.append(g.angle_deg(_road_up(scene)))

@@ -232,7 +232,7 @@ def test_real_corridor_ground_does_not_depend_on_the_draw(shared_data):
     rig = calib.load_rig(folder / "stereodemo_calibration.json")
     with Localizer(rig, None, {"num_disparities": 64}) as loc:
         result = loc(read_image(folder / "corridor_left.png"), read_image(folder / "corridor_right.png"))
-    points = frame_points(result.disparity.measured_disparity, rig, GuideParams(), result.left)
+    points = frame_points(result.disparity.disparity, rig, GuideParams(), result.left)
     fb = rig.focal_px * rig.baseline_m
     single = [fit_ground(points, fb, rng=seed, restarts=1) for seed in range(8)]
     single = [f for f in single if f is not None]

@@ -106,9 +106,9 @@ def results(shared_data):
         band = np.zeros(gt.shape, bool)
         band[:, :num] = True  # the columns OpenCV leaves unknown
         out[name] = dict(
-            ours=bad2(ours.disparity, gt), ours_valid=bad2(ours.measured_disparity, gt, valid_only=True),
-            opencv=bad2(theirs, gt), dense=bad2(dense.disparity, gt), sad=bad2(sad.disparity, gt),
-            ours_band=bad2(ours.disparity, gt, mask=band), opencv_band=bad2(theirs, gt, mask=band),
+            ours=bad2(ours.filled_disparity, gt), ours_valid=bad2(ours.disparity, gt, valid_only=True),
+            opencv=bad2(theirs, gt), dense=bad2(dense.filled_disparity, gt), sad=bad2(sad.disparity, gt),
+            ours_band=bad2(ours.filled_disparity, gt, mask=band), opencv_band=bad2(theirs, gt, mask=band),
             dmap=ours, dense_map=dense, num=num, gt_max=float(np.nanmax(gt)),
         )
     return out
@@ -149,11 +149,13 @@ def test_measured_values(results, name):
 def test_default_fills_and_says_which_pixels_are_filled(results, name):
     r = results[name]
     for dmap in (r["dmap"], r["dense_map"]):
-        assert dmap.validity["filled"] == int(dmap.filled.sum()) > 0 and dmap.valid_fraction > 0.99
-        measured = dmap.measured_disparity
-        assert np.isnan(measured[dmap.filled]).all()
-        assert np.array_equal(measured[~dmap.filled], dmap.disparity[~dmap.filled], equal_nan=True)
-        assert dmap.measured_fraction == pytest.approx(np.isfinite(measured).mean())
+        dense = dmap.filled_disparity
+        assert dmap.validity["filled"] == int(dmap.filled.sum()) > 0 and np.isfinite(dense).mean() > 0.99
+        measured = dmap.disparity  # measured by default; the fills only in filled_disparity
+        assert dmap.measured_disparity is measured
+        assert np.isnan(measured[dmap.filled]).all() and np.isfinite(dense[dmap.filled]).all()
+        assert np.array_equal(measured[~dmap.filled], dense[~dmap.filled], equal_nan=True)
+        assert dmap.valid_fraction == dmap.measured_fraction == pytest.approx(np.isfinite(measured).mean())
     # the measured pixels are the reliable ones: fewer bad pixels among them than in the filled map
     assert r["ours_valid"] < r["ours"]
 
@@ -184,8 +186,8 @@ def test_census_survives_exposure_change(shared_data, name):
     loss = {}
     kw = dict(num_disparities=64, paths=8, lr_check=None, fill_holes=False)
     for cost in ("census", "census+grad", "sad"):
-        same = bad2(compute_disparity(scene.left, scene.right, cost=cost, **kw).disparity, gt)
-        changed = bad2(compute_disparity(scene.left, brighter, cost=cost, **kw).disparity, gt)
+        same = bad2(compute_disparity(scene.left, scene.right, cost=cost, **kw).filled_disparity, gt)
+        changed = bad2(compute_disparity(scene.left, brighter, cost=cost, **kw).filled_disparity, gt)
         loss[cost] = changed - same
     assert loss["census"] <= 2.0, loss
     assert loss["census+grad"] <= 2.0, loss

@@ -37,7 +37,7 @@ def family_means(shared_data):
     for scene in scenes:
         num = disparity_range(scene)
         dmap = sc.compute_disparity(scene.left, scene.right, sc.SGMParams(num_disparities=num, block_size=5, threads=2))
-        out = {"default": (dmap.disparity, dmap.measured_disparity)}
+        out = {"default": (dmap.filled_disparity, dmap.disparity)}
         for method in methods:
             disparity = method.prepare(Setup(num_disparities=num, block_size=5, threads=2))(scene.left, scene.right)
             out[method.name] = (disparity, disparity)

@@ -72,11 +72,11 @@ class TestComputeDisparity:
         assert set(dmap.timings_ms) >= {"prepare", "postprocess", "total"}
         assert dmap.timings_ms["total"] >= dmap.timings_ms["prepare"]
         v = dmap.validity
-        assert v["pixels"] == left.size and v["valid"] == np.isfinite(dmap.disparity).sum()
-        assert 0.0 < dmap.valid_fraction <= 1.0 and dmap.valid_fraction == pytest.approx(v["valid"] / left.size)
+        assert v["pixels"] == left.size and v["valid"] == np.isfinite(dmap.filled_disparity).sum()
+        assert 0.0 < dmap.valid_fraction <= 1.0 and dmap.valid_fraction == pytest.approx((v["valid"] - v["filled"]) / left.size)
         assert v["border"] == 15 * left.shape[0]  # columns 0..14 cannot hold the full range 0..15
         # columns 0..6 reach fewer than 16 / 2 disparities: never measured (filled from the background at most)
-        assert 0 < v["short_range"] <= 7 * left.shape[0] and np.isnan(dmap.measured_disparity[:, :7]).all()
+        assert 0 < v["short_range"] <= 7 * left.shape[0] and np.isnan(dmap.disparity[:, :7]).all()
         assert (v["unknown_matcher"] + v["short_range"] + v["speckle_removed"] + v["valid"] - v["filled"]
                 == left.size)
 
@@ -218,7 +218,7 @@ class TestComputeDisparity:
             fresh = compute_disparity(*pair, m.params)
             np.testing.assert_array_equal(res.disparity, fresh.disparity)
             assert res.validity == fresh.validity
-            for arr in (res.disparity, res.filled, res.disparity_right):
+            for arr in (res.disparity, res.filled_disparity, res.filled, res.disparity_right):
                 assert arr is None or not any(np.shares_memory(arr, w) for w in m._workspace.arrays())
 
     def test_stereo_matcher_threads(self):
@@ -599,4 +599,5 @@ def test_property_well_formed_or_named_error(case):
     assert not np.isinf(dmap.disparity).any()
     p = dmap.params
     assert ((finite >= p.min_disparity - 1) & (finite <= p.max_disparity + 1)).all()
-    assert dmap.validity["valid"] == finite.size
+    assert dmap.validity["valid"] == np.count_nonzero(np.isfinite(dmap.filled_disparity))
+    assert finite.size == dmap.validity["valid"] - (0 if dmap.filled is None else np.count_nonzero(dmap.filled))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import cv2
 import numpy as np
 import pytest
 
@@ -41,7 +42,7 @@ def test_writer_writes_every_kind_and_the_record_names_the_settings(tmp_path, fr
     assert record["settings"]["box_shrink"] == 0.25 and record["settings"]["seed"] == 3
     assert record["settings"]["depth_range"] == [0.3, 80.0]
     assert "threads" not in record["settings"]["matcher"] and "max_samples" not in record["settings"]
-    writer = FrameWriter(tmp_path, ply=True, depth_range=fusion.depth_range)
+    writer = FrameWriter(tmp_path, save=tuple(SAVE_KINDS), depth_range=fusion.depth_range)
     written = writer.write("f", result, rig, record)
     assert sorted(p.name for p in written) == sorted(SAVE_KINDS[k].format(name="f") for k in SAVE_KINDS)
     assert sorted(written) == sorted(writer.expected_files("f"))
@@ -50,6 +51,32 @@ def test_writer_writes_every_kind_and_the_record_names_the_settings(tmp_path, fr
     assert saved == json.loads(json.dumps(record))
     assert saved["objects"][0]["distance_m"] == pytest.approx(3.0, rel=0.02)
     assert io.read_ply(tmp_path / "f_points.ply").points.shape[1] == 3
+
+
+def test_disparity_files_hold_measured_pixels_only_and_the_filled_map_only_when_asked(tmp_path, frame):
+    """Issue 31: the PFM and the KITTI PNG read back have no value where the map has none (NaN / 0 there, the
+    filled pixels included); ``NAME_disparity_filled.pfm`` is written only when ``dense`` is named."""
+    rig, result = frame
+    dmap = result.disparity
+    assert dmap.filled is not None and dmap.filled.any()  # the case: the matcher filled holes
+    FrameWriter(tmp_path).write("f", result, rig, {"frame": "f"})
+    assert not (tmp_path / "f_disparity_filled.pfm").exists()
+    unknown = ~np.isfinite(dmap.disparity)
+    assert unknown[dmap.filled].all()
+    pfm = io.read_pfm(tmp_path / "f_disparity.pfm")
+    assert np.isnan(pfm[unknown]).all() and np.isfinite(pfm[~unknown]).all()
+    kitti = io.read_kitti_disparity(tmp_path / "f_disparity_kitti.png")
+    assert np.isnan(kitti[unknown]).all() and np.isfinite(kitti[~unknown]).all()
+    raw = cv2.imread(str(tmp_path / "f_disparity_kitti.png"), cv2.IMREAD_UNCHANGED)
+    assert raw.dtype == np.uint16 and (raw[unknown] == 0).all()
+    dense = tmp_path / "dense"
+    FrameWriter(dense, save=("pfm", "dense", "confidence")).write("f", result, rig, {"frame": "f"})
+    conf = cv2.imread(str(dense / "f_confidence.png"), cv2.IMREAD_UNCHANGED)
+    np.testing.assert_array_equal(conf, dmap.confidence)
+    assert (conf[unknown] == 0).all() and (conf[~unknown] > 0).all()
+    filled = io.read_pfm(dense / "f_disparity_filled.pfm")
+    np.testing.assert_array_equal(filled, dmap.filled_disparity)
+    assert np.isfinite(filled[dmap.filled]).all()
 
 
 def test_sequence_appends_jsonl_and_resume_knows_finished_frames(tmp_path, frame):
@@ -96,7 +123,7 @@ def test_write_all_or_nothing_keeps_nothing_of_a_failed_group(tmp_path):
 def test_bad_save_kind_names_the_parameter(tmp_path):
     with pytest.raises(ValueError, match="`save`.*'png'"):
         FrameWriter(tmp_path, save=("png",))
-    assert set(DEFAULT_SAVE) == set(SAVE_KINDS) - {"ply"}
+    assert set(DEFAULT_SAVE) == set(SAVE_KINDS) - {"ply", "dense", "confidence"}  # only when named
 
 
 def test_record_is_json_without_nan_and_labels_say_unknown(frame):

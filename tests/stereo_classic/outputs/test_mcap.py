@@ -52,8 +52,8 @@ def test_save_mcap_holds_every_frame_in_order(shared_data: Path, tmp_path):
         pfm = read_pfm(out / f"{record['frame']}_disparity.pfm")
         measured = image >= disp_msg.min_disparity  # unknown (NaN) -> below the valid range
         assert 0.3 < measured.mean() < 1.0 and np.all(image[~measured] == disp_msg.min_disparity - 1)
-        # the measured pixels: the PFM's values there (the PFM also holds the filled pixels' guesses)
-        assert np.all(np.isfinite(pfm[measured]))
+        # the PFM holds the measured pixels only (NaN elsewhere): the same pixels, the same values
+        assert np.array_equal(measured, np.isfinite(pfm))
         np.testing.assert_array_equal(image[measured], pfm[measured])
         assert disp_msg.f == pytest.approx(rig.focal_px) and disp_msg.t == pytest.approx(rig.baseline_m)
         cubes = [m for m in markers.markers if m.ns == "objects" and m.type == 1]

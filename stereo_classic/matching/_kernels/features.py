@@ -1,0 +1,193 @@
+"""Learned features (``stereo_classic.matching.learned``) in the kernels: their int8 form and their row cost.
+
+``feature_row_cost`` is the row cost of the ``FEATURES`` kind (``cost.row_cost`` hands a row of that kind to it).
+``quantise_rows`` takes a feature network's float32 output (C, H + 2m, W + 2m) (the margin m cut off here),
+normalises each pixel's C-vector to unit length and stores ``round(FEATURE_QUANT * f)`` as int8, one image row per
+channel (H, C, W); it counts the values that are not finite (the caller refuses the model then).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+from numba.core.compiler import CompilerBase, DefaultPassBuilder
+
+from stereo_classic.matching._kernels.intrinsics import max16
+
+__all__ = ["FEATURES", "FEATURE_SCALE", "FEATURE_QUANT", "FEATURE_SIMILARITIES", "check_features",
+           "feature_cost_terms", "feature_row_cost", "quantise_rows", "with_features"]
+
+_U = np.uint64  # unsigned indices: plain vector loads (as in cost.py)
+
+#: Learned features (``stereo_classic.matching.learned``): per pixel a unit vector of C channels from a feature
+#: network, held as int8 (``round(FEATURE_QUANT * f)``); the cost is ``FEATURE_SCALE * (1 - <fL, fR>)`` (or the
+#: scaled L1 distance), so it lies in [0, 2 * FEATURE_SCALE]. ``feature_row_cost`` computes it a row at a time.
+FEATURES = 3
+#: Cost units per unit of ``1 - <fL, fR>``: 25 leaves room in the int16 sums for twice MC-CNN's own P2 (24.3) times
+#: the weak-texture gain 4 (``params.py``), in steps of 0.04 of the dot product (measured on the shared scenes: the
+#: same bad-2 as steps of 0.02, within 0.1 point per family).
+FEATURE_SCALE = 25
+#: int8 features: ``round(FEATURE_QUANT * f)`` of a unit vector's components (|f| <= 1).
+FEATURE_QUANT = 127
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _clamp(i, n):  # pragma: no cover - numba
+    return 0 if i < 0 else (n - 1 if i >= n else i)
+
+
+class _NoAlias(CompilerBase):
+    """``cost.NoAliasCompiler`` (the array arguments do not alias: no runtime overlap checks), repeated here because
+    cost.py imports this module."""
+
+    def define_pipelines(self):
+        self.state.flags.noalias = True
+        return [DefaultPassBuilder.define_nopython_pipeline(self.state)]
+
+
+@njit(cache=True, nogil=True, pipeline_class=_NoAlias)
+def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow):  # pragma: no cover - numba
+    """``row_cost`` of ``FEATURES``: ``crow[x * D + k]`` from the int8 feature vectors of row ``y``.
+
+    ``lfeat``, ``rfeat``: (H, C, W) int8 (``CostImages``). The right row is copied reversed into ``frev`` as
+    float32, one run of ``W + D - 1`` per channel, so that the D candidates of a left pixel are a contiguous slice
+    per channel; per pixel the channel sums (products for the dot product, absolute differences for L1) are
+    accumulated over the D candidates at once (vectors over k), four channels a sweep of the sums (measured 1.26x
+    faster than one). Every product and sum is an integer below 2**24, so float32 holds them exactly and the order
+    of the additions does not matter. The cost is
+    ``clip(feature_base + sum * feature_mul, 0, cmax)`` truncated to int16; matches outside the right image and
+    the padding get ``invalid_cost`` as in ``row_cost``.
+    """
+    C = lfeat.shape[1]
+    W = lfeat.shape[2]
+    D = crow.shape[0] // W
+    dmin = cost.min_disparity
+    nrr = W + D - 1
+    for ch in range(C):  # frev[ch * nrr + j] = right feature ch at column clamp(W - 1 - dmin - j)
+        base = ch * nrr
+        for j in range(nrr):
+            frev[_U(base + j)] = np.float32(rfeat[y, ch, _clamp(W - 1 - dmin - j, W)])
+    fbase = np.float32(cost.feature_base)
+    fmul = np.float32(cost.feature_mul)
+    top = np.float32(cost.cmax)
+    zero = np.float32(0.0)
+    l1 = cost.feature_l1 != 0
+    for x in range(W):
+        j0 = W - 1 - x
+        for k in range(D):
+            facc[k] = zero
+        c4 = 0 if l1 else C - C % 4
+        for ch in range(0, c4, 4):  # dot product, four channels at a time
+            a0 = np.float32(lfeat[y, ch, x])
+            a1 = np.float32(lfeat[y, ch + 1, x])
+            a2 = np.float32(lfeat[y, ch + 2, x])
+            a3 = np.float32(lfeat[y, ch + 3, x])
+            b0 = ch * nrr + j0
+            b1 = b0 + nrr
+            b2 = b1 + nrr
+            b3 = b2 + nrr
+            for k in range(D):
+                facc[k] += ((a0 * frev[_U(b0 + k)] + a1 * frev[_U(b1 + k)])
+                            + (a2 * frev[_U(b2 + k)] + a3 * frev[_U(b3 + k)]))
+        for ch in range(c4, C):
+            a = np.float32(lfeat[y, ch, x])
+            b = ch * nrr + j0
+            if l1:
+                for k in range(D):
+                    facc[k] += abs(a - frev[_U(b + k)])
+            else:
+                for k in range(D):
+                    facc[k] += a * frev[_U(b + k)]
+        cb = x * D
+        for k in range(D):
+            v = min(max(fbase + facc[k] * fmul, zero), top)
+            crow[_U(cb + k)] = max16(np.int16(v), floor[k])
+    cinv = np.int16(cost.invalid_cost)
+    nd = cost.num_disparities
+    for x in range(W):  # disparities whose match is outside the right image, as in row_cost (cost.valid_range)
+        k_lo, k_hi = max(0, x - dmin - W + 1), min(nd - 1, x - dmin)
+        if k_lo > 0 or k_hi < nd - 1:
+            cb = x * D
+            for k in range(nd):
+                if k < k_lo or k > k_hi:
+                    crow[_U(cb + k)] = cinv
+
+
+def check_features(features, H: int, W: int) -> tuple[np.ndarray, np.ndarray]:
+    """The (left, right) pair of (H, C, W) int8 features of ``cost="features"``; ValueError otherwise."""
+    ok = isinstance(features, (tuple, list)) and len(features) == 2
+    if ok:
+        lf, rf = features
+        ok = (isinstance(lf, np.ndarray) and isinstance(rf, np.ndarray) and lf.dtype == rf.dtype == np.int8
+              and lf.ndim == 3 and lf.shape == rf.shape and lf.shape[0] == H and lf.shape[2] == W
+              and lf.shape[1] >= 1 and lf.flags.c_contiguous and rf.flags.c_contiguous and lf is not rf)
+    if not ok:
+        raise ValueError(f"`features` must be two distinct C-contiguous int8 arrays (H, C, W) with (H, W) = {(H, W)}, "
+                         f"got {_describe(features)}")
+    return lf, rf
+
+
+def _describe(features) -> str:
+    if isinstance(features, (tuple, list)):
+        return ", ".join(f"{getattr(a, 'dtype', type(a).__name__)} {getattr(a, 'shape', '')}" for a in features)
+    return type(features).__name__
+
+
+def with_features(settings, features, similarity: str, H: int, W: int):
+    """(settings, C): a ``cost.CostSettings`` of the ``FEATURES`` kind completed with ``feature_cost_terms`` for the
+    checked ``features`` and their channel count; any other kind unchanged and 0."""
+    if settings.kind != FEATURES:
+        return settings, 0
+    channels = check_features(features, H, W)[0].shape[1]
+    terms = feature_cost_terms(similarity, channels)
+    return settings._replace(feature_l1=terms[0], feature_base=terms[1], feature_mul=terms[2]), channels
+
+
+#: ``feature_similarity`` values of ``sgm_match``.
+FEATURE_SIMILARITIES = ("dot", "l1")
+
+
+def feature_cost_terms(similarity: str, channels: int) -> tuple[int, float, float]:
+    """(feature_l1, feature_base, feature_mul) of ``CostSettings`` for int8 unit features of ``channels`` channels:
+    dot: ``FEATURE_SCALE * (1 - acc / FEATURE_QUANT**2)`` rounded; L1: ``FEATURE_SCALE * acc / (FEATURE_QUANT *
+    sqrt(C))`` rounded (the L1 distance of unit vectors over sqrt(C): about their L2 distance, at most 2 for
+    vectors spread over the channels; clipped at 2)."""
+    if similarity == "dot":
+        return 0, FEATURE_SCALE + 0.5, -FEATURE_SCALE / FEATURE_QUANT**2
+    if similarity == "l1":
+        return 1, 0.5, FEATURE_SCALE / (FEATURE_QUANT * float(np.sqrt(channels)))
+    raise ValueError(f"`feature_similarity` must be one of {', '.join(map(repr, FEATURE_SIMILARITIES))}, "
+                     f"got {similarity!r}")
+
+
+
+@njit(cache=True, nogil=True)
+def quantise_rows(feat, margin, y0, y1, out, sq):  # pragma: no cover - numba
+    """Rows [y0, y1) of ``out`` (H, C, W) int8, from ``feat`` (C, H + 2m,
+    W + 2m) float32 (m = ``margin``). ``sq``: (W,) float64 scratch. Returns the number of non-finite values read
+    (the rows are then undefined). A zero vector stays zero (its dot product with anything is 0)."""
+    C = feat.shape[0]
+    W = sq.shape[0]
+    q = np.float64(FEATURE_QUANT)
+    bad = 0
+    for y in range(y0, y1):
+        yy = y + margin
+        sq[:] = 0.0
+        for c in range(C):
+            row = feat[c, yy]
+            for x in range(W):
+                v = np.float64(row[x + margin])
+                sq[x] += v * v
+        for x in range(W):
+            s = sq[x]
+            if not np.isfinite(s):
+                bad += 1
+                s = 0.0
+            sq[x] = q / np.sqrt(s) if s > 0.0 else 0.0
+        for c in range(C):
+            row = feat[c, yy]
+            for x in range(W):
+                v = np.float64(row[x + margin]) * sq[x]
+                r = np.floor(v + 0.5) if np.isfinite(v) else 0.0
+                out[y, c, x] = np.int8(min(max(r, -q), q))
+    return bad

@@ -1,0 +1,187 @@
+"""Learned matching costs: the feature-network checks, the row cost against the numpy reference, the shipped MC-CNN,
+a tiny Siamese network built here giving a known disparity, and the memory estimate."""
+
+from __future__ import annotations
+
+import hashlib
+
+import cv2
+import numpy as np
+import pytest
+
+from stereo_classic.matching import MemoryBudgetError, SGMParams, compute_disparity, estimate_memory
+from stereo_classic.matching import learned
+from stereo_classic.matching import reference as ref
+from stereo_classic.matching._kernels import core
+from stereo_classic.matching.learned import FeatureModelError
+from tests.helpers.onnx_features import (
+    build_conv_features,
+    build_nan_features,
+    build_rank5_input,
+    build_strided_features,
+)
+
+
+def _texture_pair(shift: int, h: int = 48, w: int = 96, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Smooth random texture; right = left moved by ``shift`` px (d = x_left - x_right = shift everywhere)."""
+    rng = np.random.default_rng(seed)
+    big = cv2.GaussianBlur(rng.integers(0, 256, (h, w + shift)).astype(np.float32), (0, 0), 1.0)
+    big = cv2.normalize(big, None, 0, 255, cv2.NORM_MINMAX).astype(np.uint8)
+    return np.ascontiguousarray(big[:, :w]), np.ascontiguousarray(big[:, shift:shift + w])
+
+
+def _random_features(h: int, c: int, w: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    f = rng.standard_normal((h, c, w))
+    f /= np.linalg.norm(f, axis=1, keepdims=True)
+    return np.ascontiguousarray(np.round(f * 127).astype(np.int8))
+
+
+# ------------------------------------------------------------------------------------------------ the row cost kernel
+@pytest.mark.parametrize("similarity", ["dot", "l1"])
+@pytest.mark.parametrize("channels, min_disparity, num_disparities", [(8, 0, 16), (7, -3, 20), (64, 2, 70)])
+def test_feature_row_cost_equals_the_numpy_reference(similarity, channels, min_disparity, num_disparities):
+    h, w = 5, 90
+    left, right = _random_features(h, channels, w, 1), _random_features(h, channels, w, 2)
+    right[:, :, :-10] = left[:, :, 10:]  # right(x) = left(x + 10): true matches at d = 10, low costs too
+    grey = np.zeros((h, w), np.uint8)
+    got = core.cost_volume(grey, grey, cost="features", min_disparity=min_disparity, num_disparities=num_disparities,
+                           p2=300, features=(left, right), feature_similarity=similarity)
+    want = ref.feature_cost_reference(left, right, similarity=similarity, min_disparity=min_disparity,
+                                      num_disparities=num_disparities, p2=300)
+    np.testing.assert_array_equal(got, want)
+    if similarity == "dot" and 0 <= 10 - min_disparity < num_disparities:
+        assert (got[:, 20:, 10 - min_disparity] <= 1).all()  # identical unit vectors: cost 50 * (1 - ~1)
+
+
+def test_features_must_be_an_int8_pair_of_the_image_size():
+    grey = np.zeros((4, 30), np.uint8)
+    f = _random_features(4, 8, 30, 0)
+    for bad in (None, (f, f), (f, f[:, :, :20].copy()), (f.astype(np.int16), f.astype(np.int16))):
+        with pytest.raises(ValueError, match="`features` must be two distinct C-contiguous int8 arrays"):
+            core.cost_volume(grey, grey, cost="features", num_disparities=8, features=bad)
+
+
+# ------------------------------------------------------------------------------------------------ a network built here
+@pytest.mark.parametrize("rank", [2, 3, 4])
+def test_a_tiny_siamese_network_finds_the_known_disparity(tmp_path, rank):
+    path = build_conv_features(tmp_path / f"conv{rank}.onnx", channels=8, rank=rank)
+    model = learned.FeatureModel(path)
+    assert (model.channels, model.margin) == (8, 1)
+    left, right = _texture_pair(6)
+    dmap = compute_disparity(left, right, cost="features", feature_model=str(path), num_disparities=16,
+                             subpixel=False, threads=1)
+    inner = dmap.measured_disparity[5:-5, 20:-5]
+    assert np.nanmedian(inner) == 6.0
+    assert np.mean(inner == 6.0) > 0.9
+    assert "features" in dmap.timings_ms
+
+
+def test_l1_similarity_and_the_other_input_normalisations_work_too(tmp_path):
+    path = str(build_conv_features(tmp_path / "conv.onnx", channels=8))
+    left, right = _texture_pair(5, seed=3)
+    for overrides in ({"feature_similarity": "l1"}, {"feature_input": "unit"}, {"feature_input": "raw"}):
+        dmap = compute_disparity(left, right, cost="features", feature_model=path, num_disparities=16,
+                                 subpixel=False, threads=1, **overrides)
+        assert np.nanmedian(dmap.measured_disparity[5:-5, 20:-5]) == 5.0, overrides
+
+
+# ------------------------------------------------------------------------------------------------ bad networks
+def _one_line(exc: pytest.ExceptionInfo) -> str:
+    text = str(exc.value)
+    assert "\n" not in text and "`feature_model`" in text
+    return text
+
+
+def test_a_file_that_is_not_onnx_is_refused_in_one_line(tmp_path):
+    path = tmp_path / "notes.onnx"
+    path.write_text("not a model")
+    left, right = _texture_pair(3)
+    with pytest.raises(FeatureModelError) as exc:
+        compute_disparity(left, right, cost="features", feature_model=str(path), num_disparities=16)
+    assert "is not a usable ONNX model" in _one_line(exc)
+
+
+def test_a_missing_file_is_refused(tmp_path):
+    with pytest.raises(FeatureModelError, match="no such file"):
+        learned.FeatureModel(tmp_path / "absent.onnx")
+
+
+def test_wrong_input_rank_is_refused(tmp_path):
+    with pytest.raises(FeatureModelError) as exc:
+        learned.FeatureModel(build_rank5_input(tmp_path / "rank5.onnx"))
+    assert "rank 2 (H, W), 3 (1, H, W) or 4 (1, 1, H, W), got rank 5" in _one_line(exc)
+
+
+def test_output_that_is_not_centred_features_is_refused(tmp_path):
+    with pytest.raises(FeatureModelError) as exc:
+        learned.FeatureModel(build_strided_features(tmp_path / "strided.onnx"))
+    assert "the output must be float32 features (C, H - 2m, W - 2m)" in _one_line(exc)
+
+
+def test_non_finite_features_are_refused(tmp_path):
+    with pytest.raises(FeatureModelError) as exc:
+        learned.FeatureModel(build_nan_features(tmp_path / "nan.onnx"))
+    assert "not finite" in _one_line(exc)
+
+
+def test_cuda_is_refused_where_onnxruntime_has_none(tmp_path):
+    import onnxruntime as ort
+
+    if "CUDAExecutionProvider" in ort.get_available_providers():
+        pytest.skip("this onnxruntime has CUDA")
+    path = build_conv_features(tmp_path / "conv.onnx")
+    with pytest.raises(FeatureModelError, match="no CUDAExecutionProvider"):
+        learned.FeatureModel(path, provider="cuda")
+    assert learned.FeatureModel(path, provider="auto").providers == ("CPUExecutionProvider",)
+
+
+# ------------------------------------------------------------------------------------------------ the shipped MC-CNN
+@pytest.mark.parametrize("name", sorted(learned.SHIPPED_MODELS))
+def test_shipped_models_are_in_the_package_with_their_sha256_and_licence(name):
+    path = learned.shipped_model_path(name)
+    assert hashlib.sha256(path.read_bytes()).hexdigest() == learned.SHIPPED_MODELS[name].sha256
+    data = path.parent
+    assert "Apache License" in (data / "LICENSE_mccnn_Apache-2.0.txt").read_text()
+    assert learned.SHIPPED_MODELS[name].sha256 in (data / "PROVENANCE.md").read_text()
+    model = learned.feature_model(name, "cpu", 1)
+    assert (model.channels, model.margin) == (64, 5)
+
+
+def test_mccnn_smoke_finds_the_shift_of_a_textured_pair():
+    left, right = _texture_pair(9, h=60, w=120, seed=4)
+    dmap = compute_disparity(left, right, cost="mccnn", num_disparities=32, subpixel=False, threads=2)
+    assert dmap.params.effective_feature_model == "mccnn-fast-dw"
+    inner = dmap.measured_disparity[6:-6, 40:-6]
+    assert np.nanmedian(inner) == 9.0 and np.mean(inner == 9.0) > 0.9
+    assert np.isfinite(dmap.filled_disparity).all() and set(dmap.timings_ms) >= {"features", "cost", "aggregate"}
+
+
+# ------------------------------------------------------------------------------------------------ memory
+def test_estimate_memory_counts_the_features_and_refuses_what_does_not_fit():
+    shape = (375, 1242)
+    classical = estimate_memory(shape, SGMParams(num_disparities=128, threads=2, cost="census"))
+    mccnn = estimate_memory(shape, SGMParams(num_disparities=128, threads=2, cost="mccnn"))
+    int8_features = 2 * 64 * shape[0] * shape[1]
+    run = learned.onnx_feature_bytes(*shape, 64, 5)
+    census_inputs = 2 * 8 * shape[0] * shape[1] + 2 * (shape[0] + 20) * (shape[1] + 20)  # codes + padded images
+    assert mccnn - classical >= int8_features + run - census_inputs > 500e6  # ONNX Runtime's run dominates
+    left, right = _texture_pair(3)
+    need = estimate_memory(left.shape, SGMParams(num_disparities=16, cost="mccnn"))
+    with pytest.raises(MemoryBudgetError, match="GiB"):
+        compute_disparity(left, right, cost="mccnn", num_disparities=16, memory_limit=need - 1)
+
+
+# ------------------------------------------------------------------------------------------------ parameters
+def test_learned_parameters_are_checked_and_have_their_penalties():
+    params = SGMParams(cost="mccnn")
+    assert (params.effective_p1, params.effective_p2) == (29, 304)
+    assert params.learned and SGMParams().effective_feature_model is None
+    with pytest.raises(ValueError, match="`feature_model` must be an ONNX feature network for cost 'features'"):
+        SGMParams(cost="features")
+    with pytest.raises(ValueError, match="`feature_similarity` must be one of"):
+        SGMParams(cost="mccnn", feature_similarity="cosine")
+    with pytest.raises(ValueError, match="`onnx_provider` must be one of"):
+        SGMParams(cost="mccnn", onnx_provider="tpu")
+    with pytest.raises(ValueError, match="`p2` too large"):
+        SGMParams(cost="mccnn", p2=2000)

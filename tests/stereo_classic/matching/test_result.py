@@ -1,0 +1,42 @@
+"""stereo_classic.matching.result.DisparityMap: measured by default, filled by name (issue 31)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stereo_classic.matching import SGMParams
+from stereo_classic.matching.result import DisparityMap
+
+
+def test_constructor_moves_the_fills_to_filled_disparity():
+    d = np.arange(12, dtype=np.float32).reshape(3, 4)
+    d[0, 0] = np.nan
+    filled = np.zeros((3, 4), bool)
+    filled[1, 1:3] = True
+    m = DisparityMap(d, None, SGMParams(), validity={"valid": 11}, filled=filled)
+    assert m.filled_disparity is d and np.isnan(m.disparity[filled]).all() and np.isnan(m.disparity[0, 0])
+    assert np.array_equal(m.disparity[~filled], d[~filled], equal_nan=True)
+    assert m.measured_disparity is m.disparity and m.valid_mask.sum() == 9
+    assert m.valid_fraction == m.measured_fraction == pytest.approx(9 / 12) and m.validity["valid"] == 11
+    plain = DisparityMap(d, None, SGMParams())
+    assert plain.disparity is d and plain.filled_disparity is d  # nothing filled: one array
+
+
+def test_confidence_is_zero_off_the_measured_pixels_and_computed_once():
+    d = np.full((20, 30), 4.0, np.float32)
+    d[:, :5] = np.nan
+    gray = np.tile((np.arange(30) * 8 % 256).astype(np.uint8), (20, 1))
+    m = DisparityMap(d, None, SGMParams(), left_gray=gray)
+    c = m.confidence
+    assert c.dtype == np.uint8 and (c[:, :5] == 0).all() and (c[:, 5:] > 0).all() and m.confidence is c
+    assert not c.flags.writeable
+
+
+@pytest.mark.parametrize("name, value", [("left_gray", np.zeros((3, 4), np.float32)),
+                                         ("filled", np.zeros((2, 4), bool)),
+                                         ("disparity_right", np.zeros((3, 4), np.float64))])
+def test_bad_arrays_are_named(name, value):
+    args = {"disparity": np.zeros((3, 4), np.float32), "disparity_right": None, "params": SGMParams(), name: value}
+    with pytest.raises(ValueError, match=f"`{name}`"):
+        DisparityMap(**args)
