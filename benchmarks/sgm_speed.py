@@ -1,10 +1,10 @@
 """Speed probe of the SGM kernels against OpenCV StereoSGBM, side by side, interleaved.
 
-    python -m benchmarks.sgm_speed [--data ../shared/data] [--repeat 15] [--disparities 128]
+    python -m benchmarks.sgm_speed [--data ../shared/data] [--scene kitti|oakd] [--repeat 15] [--disparities 128]
                                    [--threads 2] [--cost census+grad] [--paths 3] [--no-opencv]
                                    [--gap-ms 50] [--lr-mode full|opencv]
 
-Loads the KITTI pair (1242 x 375), greyscale, times every method once per repetition in a rotating
+Loads the KITTI pair (1242 x 375; ``--scene oakd``: the OAK-D living room, 640 x 480), greyscale, times every method once per repetition in a rotating
 order (so drift of a shared machine hits all alike), the first call apart (numba compile or cache
 load), and prints median/min ms, M disparity-estimates/s, ratios to each OpenCV mode, the kernel's
 per-stage ms and the peak memory it allocated (tracemalloc, numpy buffers) against 3 x W x H x D.
@@ -37,7 +37,9 @@ import numpy as np
 
 __all__ = [
     "SCALING_METHODS",
+    "SCENES",
     "load_kitti_grey",
+    "load_scene_grey",
     "main",
     "opencv_runner",
     "padding_table",
@@ -60,6 +62,22 @@ def load_kitti_grey(data: Path) -> tuple[np.ndarray, np.ndarray]:
     right = cv2.imread(str(folder / "right.png"), cv2.IMREAD_GRAYSCALE)
     if left is None or right is None:
         raise FileNotFoundError(f"KITTI pair not found in {folder}")
+    return np.ascontiguousarray(left), np.ascontiguousarray(right)
+
+
+#: ``--scene``: the pair timed by ``run`` (KITTI 1242 x 375, or the OAK-D VGA living room, 640 x 480).
+SCENES = {"kitti": ("kitti_object_pair/left.png", "kitti_object_pair/right.png"),
+          "oakd": ("oakd/living_room_left.png", "oakd/living_room_right.png")}
+
+
+def load_scene_grey(data: Path, scene: str = "kitti") -> tuple[np.ndarray, np.ndarray]:
+    """The grey pair of ``scene`` (a key of SCENES) under ``data``."""
+    if scene == "kitti":
+        return load_kitti_grey(data)
+    paths = [data / name for name in SCENES[scene]]
+    left, right = (cv2.imread(str(path), cv2.IMREAD_GRAYSCALE) for path in paths)
+    if left is None or right is None:
+        raise FileNotFoundError(f"pair {scene!r} not found: {paths[0]}, {paths[1]}")
     return np.ascontiguousarray(left), np.ascontiguousarray(right)
 
 
@@ -109,9 +127,9 @@ def _peak_bytes(fn, left, right) -> int:
 
 def run(data: Path, *, repeat: int = 15, num_disparities: int = 128, threads: int = 2, cost: str = "census+grad",
         paths: int = 3, opencv: bool = True, gap_ms: float = 50.0, lr_mode: str = "full",
-        out=sys.stdout) -> dict[str, list[float]]:
+        out=sys.stdout, scene: str = "kitti") -> dict[str, list[float]]:
     cv2.setNumThreads(threads)
-    left, right = load_kitti_grey(data)
+    left, right = load_scene_grey(data, scene)
     H, W = left.shape
     D = num_disparities
     runners = {}
@@ -339,6 +357,8 @@ def main(argv=None) -> int:
     ap.add_argument("--gap-ms", type=float, default=50.0, help="pause before every timed call (default 50)")
     ap.add_argument("--lr-mode", default="full", choices=["full", "opencv"], help="LR check of the matcher (1 px)")
     ap.add_argument("--scaling", action="store_true", help="the thread-scaling table (matcher defaults and 3WAY)")
+    ap.add_argument("--scene", default="kitti", choices=sorted(SCENES),
+                    help="pair to time: kitti (1242x375, default) or oakd (living room, 640x480; use 64 disparities)")
     ap.add_argument("--padding", action="store_true", help="the matcher with and without its disparity padding")
     a = ap.parse_args(argv)
     if a.padding:
@@ -356,7 +376,7 @@ def main(argv=None) -> int:
                                             name="kitti_object_pair")))
         return 0
     run(a.data, repeat=a.repeat, num_disparities=a.disparities, threads=a.threads, cost=a.cost, paths=a.paths,
-        opencv=not a.no_opencv, gap_ms=a.gap_ms, lr_mode=a.lr_mode)
+        opencv=not a.no_opencv, gap_ms=a.gap_ms, lr_mode=a.lr_mode, scene=a.scene)
     return 0
 
 

@@ -10,6 +10,8 @@ frames without reading them. Kinds:
 * :class:`SideBySideSource`: a side-by-side stereo video file or a live side-by-side camera
   (``cv2.VideoCapture``); left half is the left image. A source that stops delivering frames ends the
   iteration (the run then finishes with its summary).
+* ``stereo_classic.ros.bag.BagSource``: a rosbag2 (MCAP) recording, left and right paired by header stamp (it lives
+  with the ROS code, as its dependencies are the ``bag`` extra's; docs/ros.md).
 """
 
 from __future__ import annotations

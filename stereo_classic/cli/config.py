@@ -47,9 +47,12 @@ __all__ = ["FUSION_OPTIONS", "INPUT_OPTIONS", "RUN_DEFAULTS", "ConfigError", "du
 _INPUT_DEFAULTS: dict[str, tuple[Any, str]] = {
     "left": (None, "list[str]"), "right": (None, "list[str]"), "calib": (None, "str"), "rectify": (False, "bool"),
     "dataset": (None, "str"), "video": (None, "str"), "camera": (None, "int"),
+    "bag": (None, "str"), "left_topic": (None, "str"), "right_topic": (None, "str"),
+    "left_info_topic": (None, "str"), "right_info_topic": (None, "str"), "stamp_tolerance": (None, "float"),
 }
 #: The input options that choose the kind of input: given as flags, they replace the config file's.
-_INPUT_KINDS = ("left", "right", "dataset", "video", "camera")
+_INPUT_KINDS = ("left", "right", "dataset", "video", "camera", "bag", "left_topic", "right_topic",
+                "left_info_topic", "right_info_topic", "stamp_tolerance")
 
 
 def _kind(value: Any) -> str:

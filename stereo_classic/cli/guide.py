@@ -62,7 +62,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     out = p.add_argument_group("output")
     out.add_argument("-o", "--output", default=None, metavar="DIR", help="output folder (default: guide_out)")
     out.add_argument("--save", dest="guide_save", default="", metavar="LIST",
-                     help=f"comma-separated pictures among {','.join(GUIDE_SAVE)} (default: none)")
+                     help=f"comma-separated pictures among {','.join(GUIDE_SAVE)}, and mcap (results.mcap: the "
+                          "results and events as ROS 2 messages, docs/ros.md) (default: none)")
     out.add_argument("--fps", type=float, default=None, metavar="F",
                      help=f"frames per second of an image sequence (default: the video's, else {_DEFAULT_FPS:g})")
     out.add_argument("--speak", action="store_true", help="speak the messages (offline: espeak-ng or pyttsx3)")
@@ -91,9 +92,9 @@ def _guide_params(args: argparse.Namespace) -> GuideParams:
 
 def _save_kinds(text: str) -> list[str]:
     kinds = [s.strip() for s in (text or "").split(",") if s.strip()]
-    bad = [k for k in kinds if k not in GUIDE_SAVE]
+    bad = [k for k in kinds if k not in GUIDE_SAVE and k != "mcap"]  # mcap: results.mcap (docs/ros.md)
     if bad:
-        raise UsageError(f"--save: unknown picture {bad[0]!r}; choose among {', '.join(GUIDE_SAVE)}")
+        raise UsageError(f"--save: unknown picture {bad[0]!r}; choose among {', '.join(GUIDE_SAVE)}, mcap")
     return kinds
 
 
@@ -126,6 +127,22 @@ def _fps(args: argparse.Namespace, source: Source) -> float:
     return _DEFAULT_FPS
 
 
+def _mcap_sink(outdir: Path) -> Any:
+    from stereo_classic.outputs.mcap import MCAP_NAME, McapSink
+    from stereo_classic.ros import MissingDependencyError
+
+    try:
+        return McapSink(outdir / MCAP_NAME)
+    except MissingDependencyError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def mcap_stamp(record: dict[str, Any]) -> int:
+    from stereo_classic.outputs.mcap import frame_stamp_ns
+
+    return frame_stamp_ns(record)
+
+
 def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kinds: list[str], outdir: Path,
          source: Source, base_rig: calib.RectifiedRig | None) -> int:
     detector, _ = run_command._open_detector(cfg)
@@ -137,6 +154,8 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
     sink = JsonlSink(outdir / EVENTS_NAME)
     speaker = Speaker(speak=args.speak, wav_dir=args.speak_to)
     guide = Guide(params)
+    mcap = _mcap_sink(outdir) if "mcap" in kinds else None
+    kinds = [k for k in kinds if k != "mcap"]
     current: list[Any] = []          # [original rig, rig of the images matched, Localizer]
     timings: list[dict[str, float]] = []
     frames = events = 0
@@ -169,6 +188,8 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
             if separate:
                 guide.reset()
             t = time.monotonic() - start if live else (0.0 if separate else frame.index / fps)
+            if not separate and frame.source and "time_s" in frame.source:  # a recording: its stamps
+                t = float(frame.source["time_s"])
             t0 = time.perf_counter()
             gframe = guide.update(result, rig, t, frame=frame.name)
             guide_ms = (time.perf_counter() - t0) * 1e3
@@ -177,6 +198,11 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
                 tqdm.write(f"[{frame.name}] {event.priority}: {event.text}", file=sys.stdout)
                 speaker(event)
             sink.append(gframe.haptics_record())
+            if mcap is not None:  # the frame's results and its events as ROS 2 messages
+                record = {"frame": frame.name, "index": frame.index, "source": frame.source,
+                          "objects": result.objects.to_json()}
+                mcap.write_frame(result, rig, record)
+                mcap.write_events([e.to_dict() for e in gframe.events], mcap_stamp(record))
             for kind in kinds:
                 picture = (draw_overlay(result.left, gframe, rig, params) if kind == "overlay"
                            else draw_birdseye(gframe, params))
@@ -190,6 +216,8 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
     finally:
         bar.close()
         speaker.close()
+        if mcap is not None:
+            mcap.close()
         if current:
             current[-1].close()
     if timings and not quiet:

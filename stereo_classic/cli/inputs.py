@@ -1,7 +1,8 @@
 """The input options shared by the commands that run over frames (``run``, and those built on it).
 
 One kind of input per call: ``--left/--right`` pairs (files or globs, paired in order) with ``--calib``, a
-``--dataset`` folder, a side-by-side ``--video`` or ``--camera`` with ``--calib``, or none (the built-in demo).
+``--dataset`` folder, a side-by-side ``--video`` or ``--camera`` with ``--calib``, a rosbag2 ``--bag`` (MCAP) with
+``--left-topic``/``--right-topic`` (calibration from its CameraInfo or ``--calib``), or none (the built-in demo).
 :func:`add_input_options` registers them on a parser; :func:`open_source` turns the parsed options into a
 :mod:`stereo_classic.sources` source and, where the input does not carry its own, the rectified rig.
 """
@@ -17,7 +18,7 @@ from stereo_classic.cli.errors import UsageError
 
 __all__ = ["Source", "add_input_options", "load_rig", "open_source"]
 
-Source = sources.PairSource | sources.SceneSource | sources.SideBySideSource
+Source = sources.PairSource | sources.SceneSource | sources.SideBySideSource  # or a stereo_classic.ros.bag.BagSource
 
 
 def add_input_options(parser: Any) -> None:
@@ -33,6 +34,17 @@ def add_input_options(parser: Any) -> None:
     src.add_argument("--video", metavar="FILE",
                      help="a side-by-side stereo video (left half = left image); needs --calib")
     src.add_argument("--camera", type=int, metavar="N", help="live side-by-side stereo camera N; needs --calib")
+    bag = parser.add_argument_group("rosbag2 (MCAP) input: the bag extra, docs/ros.md")
+    bag.add_argument("--bag", metavar="FILE.mcap", help="a rosbag2 recording in MCAP; needs --left-topic and "
+                     "--right-topic; calibration from its CameraInfo topics unless --calib is given")
+    bag.add_argument("--left-topic", metavar="TOPIC", help="left sensor_msgs/Image or CompressedImage topic")
+    bag.add_argument("--right-topic", metavar="TOPIC", help="right sensor_msgs/Image or CompressedImage topic")
+    bag.add_argument("--left-info-topic", metavar="TOPIC",
+                     help="left CameraInfo topic (default: camera_info beside --left-topic)")
+    bag.add_argument("--right-info-topic", metavar="TOPIC",
+                     help="right CameraInfo topic (default: camera_info beside --right-topic)")
+    bag.add_argument("--stamp-tolerance", type=float, metavar="S",
+                     help="pair left and right stamps within S seconds (default 0: equal stamps only)")
     src.add_argument("--max-frames", type=int, default=None, metavar="N", help="stop after N frames (0 = all)")
     src.add_argument("--scale", type=float, default=None, metavar="F",
                      help="resize the images by F (e.g. 0.5) before matching")
@@ -57,12 +69,18 @@ def open_source(args: argparse.Namespace, max_frames: int | None = None) -> tupl
     Scenes of ``--dataset`` and the demo carry their own rig (``None`` is returned). ``max_frames`` (None = all)
     stops reading. Wrong combinations raise :class:`UsageError` naming the options.
     """
-    kinds = [k for k in ("left", "dataset", "video", "camera") if getattr(args, k) is not None]
+    kinds = [k for k in ("left", "dataset", "video", "camera", "bag") if getattr(args, k, None) is not None]
     if args.right is not None and args.left is None:
         raise UsageError("--right needs --left")
     if len(kinds) > 1:
         raise UsageError(f"choose one input: --{kinds[0]} and --{kinds[1]} were both given")
     kind = kinds[0] if kinds else "demo"
+    topics = [f"--{k.replace('_', '-')}" for k in ("left_topic", "right_topic", "left_info_topic", "right_info_topic",
+                                                   "stamp_tolerance") if getattr(args, k, None) is not None]
+    if kind == "bag":
+        return _open_bag(args, max_frames)
+    if topics:
+        raise UsageError(f"{topics[0]} goes with --bag")
     if kind in ("left", "video", "camera") and not args.calib:
         raise UsageError(f"--{kind} needs --calib (the stereo calibration)")
     if kind in ("demo", "dataset") and (args.calib or args.rectify):
@@ -91,3 +109,22 @@ def open_source(args: argparse.Namespace, max_frames: int | None = None) -> tupl
     if max_frames:
         src.scenes = src.scenes[:max_frames]  # descriptions: the scenes past it are never read
     return src, None
+
+
+def _open_bag(args: argparse.Namespace, max_frames: int | None) -> tuple[Source, calib.RectifiedRig | None]:
+    """A :class:`stereo_classic.ros.bag.BagSource` (the calibration from ``--calib`` or the bag's CameraInfo)."""
+    from stereo_classic.ros import MissingDependencyError
+
+    for option in ("left_topic", "right_topic"):
+        if not getattr(args, option, None):
+            raise UsageError(f"--bag needs --{option.replace('_', '-')} (the sensor_msgs/Image topic of that camera)")
+    rig = load_rig(args.calib, args.rectify) if args.calib else None
+    try:
+        from stereo_classic.ros.bag import BagSource
+
+        source = BagSource(args.bag, args.left_topic, args.right_topic, tolerance_s=args.stamp_tolerance or 0.0,
+                           rig=rig, rectify=bool(args.rectify), left_info=args.left_info_topic,
+                           right_info=args.right_info_topic, max_frames=max_frames)
+    except MissingDependencyError as exc:
+        raise UsageError(str(exc)) from None
+    return source, source.rig

@@ -12,7 +12,7 @@ import logging
 import sys
 from collections.abc import Callable, Sequence
 
-from stereo_classic.cli import calibrate, disparity, guide, run
+from stereo_classic.cli import calibrate, disparity, guide, ros, run
 from stereo_classic.cli.errors import UsageError
 
 __all__ = ["main", "console_main", "UsageError", "build_parser", "run_guarded"]
@@ -20,7 +20,7 @@ __all__ = ["main", "console_main", "UsageError", "build_parser", "run_guarded"]
 log = logging.getLogger("stereo_classic")
 
 # Sub-command modules, in the order they appear in ``--help``.
-_SUBCOMMANDS = (run, guide, disparity, calibrate)
+_SUBCOMMANDS = (run, guide, disparity, calibrate, ros)
 
 
 def build_parser() -> argparse.ArgumentParser:

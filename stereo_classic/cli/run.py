@@ -72,9 +72,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     out = p.add_argument_group("output")
     out.add_argument("-o", "--output", default=None, metavar="DIR", help="output folder (default: stereo_out)")
     out.add_argument("--save", default=None, metavar="LIST",
-                     help=f"comma-separated outputs among {','.join(SAVE_KINDS)} "
-                          f"(default: {','.join(DEFAULT_SAVE)}; dense, the filled disparity, confidence and ply only "
-                          "when named; --ply adds the point cloud to any list)")
+                     help=f"comma-separated outputs among {','.join(SAVE_KINDS)},mcap "
+                          f"(default: {','.join(DEFAULT_SAVE)}; dense, the filled disparity, confidence, ply and mcap "
+                          "(results.mcap, a ROS 2 recording) only when named; --ply adds the point cloud to any list)")
     out.add_argument("--ply", action=argparse.BooleanOptionalAction, default=None,
                      help="also write a coloured PLY point cloud")
     out.add_argument("--resume", action="store_true", help="skip frames whose outputs are all present")
@@ -141,9 +141,17 @@ def _options(args: argparse.Namespace) -> dict[str, Any]:
         raise UsageError(str(exc)) from None
     if cfg["max_frames"] < 0:  # the merged value: a flag or the config file
         raise UsageError(f"`max_frames` (--max-frames) must be >= 0 (0 = all), got {cfg['max_frames']}")
-    bad = [s for s in cfg["save"] if s not in SAVE_KINDS]
+    bad = [s for s in cfg["save"] if s not in SAVE_KINDS and s != "mcap"]  # mcap: one file (outputs/mcap.py)
     if bad:
-        raise UsageError(f"--save: unknown output {bad[0]!r}; choose among {', '.join(SAVE_KINDS)}")
+        raise UsageError(f"--save: unknown output {bad[0]!r}; choose among {', '.join(SAVE_KINDS)}, mcap")
+    if "mcap" in cfg["save"]:
+        from stereo_classic.ros import MissingDependencyError, require
+        try:
+            require("mcap_ros2.writer", "--save mcap (writing an MCAP recording)")
+        except MissingDependencyError as exc:
+            raise UsageError(str(exc)) from None
+    if "mcap" in cfg["save"] and args.resume:
+        raise UsageError("--save mcap writes one recording per run: it cannot be resumed (run again without --resume)")
     if cfg["threads"] < 0:
         raise UsageError(f"--threads must be >= 1 (0 = all), got {cfg['threads']}")
     if cfg["on_error"] not in ON_ERROR:
@@ -232,8 +240,8 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
     names = source.names
     sequence = isinstance(source, sources.SideBySideSource) or (names is not None and len(names) != 1)
     fusion: FusionParams = cfg["fusion"]
-    writer = FrameWriter(outdir, save=cfg["save"], ply=cfg["ply"], depth_range=fusion.depth_range,
-                         sequence=sequence, resume=args.resume)
+    writer: Any = FrameWriter(outdir, save=[k for k in cfg["save"] if k != "mcap"], ply=cfg["ply"],
+                              depth_range=fusion.depth_range, sequence=sequence, resume=args.resume)
     detector, detector_name = _open_detector(cfg)
     quiet = getattr(args, "quiet", False)
 
@@ -265,6 +273,9 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
             executor = stack.enter_context(_dask_executor(cfg, quiet))
             if detector is not None:  # each worker opens its own, once
                 detector = DetectorSpec(str(resolve_model(cfg["model"])), cfg["conf"], cfg["iou"])
+        if "mcap" in cfg["save"]:  # the results as one ROS 2 recording (the bag extra)
+            writer = _mcap_writer(writer, outdir)
+            stack.callback(writer.close)
         started = time.perf_counter()
         summary = run_source(
             source, writer, params_for=partial(_matcher_params, cfg), rig=base_rig,
@@ -274,6 +285,16 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
             on_error=cfg["on_error"], executor=executor, read_ahead=cfg["read_ahead"])
         wall = time.perf_counter() - started
     return _report(summary, source, outdir, quiet, wall, flagged)
+
+
+def _mcap_writer(writer: FrameWriter, outdir: Path) -> Any:
+    from stereo_classic.outputs.mcap import MCAP_NAME, McapFrameWriter
+    from stereo_classic.ros import MissingDependencyError
+
+    try:
+        return McapFrameWriter(writer, outdir / MCAP_NAME)
+    except MissingDependencyError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def _input_settings(args: argparse.Namespace) -> dict[str, Any]:
@@ -288,6 +309,10 @@ def _input_settings(args: argparse.Namespace) -> dict[str, Any]:
         return {"dataset": absolute(args.dataset)}
     if args.video is not None:
         return {"video": absolute(args.video), "calib": absolute(args.calib), "rectify": bool(args.rectify)}
+    if getattr(args, "bag", None) is not None:
+        return {"bag": absolute(args.bag), **{k: getattr(args, k) for k in (
+            "left_topic", "right_topic", "left_info_topic", "right_info_topic", "stamp_tolerance")},
+            "calib": absolute(args.calib), "rectify": bool(args.rectify)}
     if args.camera is not None:
         return {"camera": args.camera, "calib": absolute(args.calib), "rectify": bool(args.rectify)}
     return {"demo": True}
@@ -338,6 +363,10 @@ def _report(summary: RunSummary, source: Source, outdir: Path, quiet: bool, wall
     text = f"{summary.frames} frame(s), {summary.objects} object(s), outputs in {outdir}"
     if summary.skipped:
         text += f"; {summary.skipped} finished frame(s) skipped (--resume)"
+    unpaired = getattr(source, "unpaired", None)  # a recording's messages without a partner (BagSource)
+    if unpaired and any(unpaired.values()):
+        text += (f"; {sum(len(v) for v in unpaired.values())} image message(s) without a partner not used: "
+                 + source.unpaired_text())
     if summary.skipped_scenes:
         text += f"; {len(summary.skipped_scenes)} scene(s) not measured (no calibration, named above)"
     if summary.failed:

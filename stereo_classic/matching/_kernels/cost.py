@@ -31,6 +31,7 @@ from stereo_classic.matching._kernels.intrinsics import (
     lshr16,
     max16,
     min16,
+    mulhi16,
     mulshr16,
     popxor16,
     shr16,
@@ -450,6 +451,12 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     cmax = np.int16(cost.cmax)
     gmul = np.int16(cost.grad_mul)
     gshift = np.int16(GRAD_SHIFT)
+    # (sum * grad_mul) >> GRAD_SHIFT == (sum * (grad_mul << (16 - GRAD_SHIFT))) >> 16 exactly while the scaled
+    # multiplier fits 16 bits (every block size but 1): the high half of a 16-bit product (one vpmulhuw for 32
+    # lanes, not two widened 32-bit multiplies and a narrowing), measured about a third of the gradient term.
+    gmul_hi = cost.grad_mul << (16 - GRAD_SHIFT)
+    high = gmul_hi < 65536
+    ghi = np.int16((gmul_hi - 65536 if gmul_hi >= 32768 else gmul_hi) if high else 0)  # its 16 bits, as int16
     nrr = W + D - 1
     if kind != SAD:  # census: four 16-bit quarters per code (vpopcntw), all in int16 lanes
         for j in range(nrr):  # rrev[q * nrr + j] = quarter q of the right code at column clamp(W - 1 - dmin - j)
@@ -458,12 +465,14 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
                 rrev[q * nrr + j] = rcode[y, c, q]
     for x in range(W):
         cb = x * D
-        if grad:  # the window sum of the pixel: hsum over the column sums x - h .. x + h
+        bin_ = (x + 2 * h) * D
+        bout = (x - 1) * D
+        # census + grad past the first column moves the window sum on in its cost loop (one pass over D, below)
+        fused = grad and high and kind != SAD and x > 0
+        if grad and not fused:  # the window sum of the pixel: hsum over the column sums x - h .. x + h
             if x == 0:
                 sad_hsum_init(hsum, colsum, 0, h, D)
             else:
-                bin_ = (x + 2 * h) * D
-                bout = (x - 1) * D
                 for k in range(D):
                     hsum[k] = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
         if kind == SAD:
@@ -478,7 +487,21 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
         j1 = j0 + nrr
         j2 = j1 + nrr
         j3 = j2 + nrr
-        if grad:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT, in 32 bits
+        if fused:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT
+            for k in range(D):
+                hs = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
+                hsum[k] = hs
+                crow[_U(cb + k)] = max16(add16(
+                    add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                          add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)]))),
+                    mulhi16(hs, ghi)), floor[k])
+        elif grad and high:  # the first column: the window sum made above
+            for k in range(D):
+                crow[_U(cb + k)] = max16(add16(
+                    add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                          add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)]))),
+                    mulhi16(hsum[k], ghi)), floor[k])
+        elif grad:  # the same in 32-bit products (block size 1: grad_mul is 2 ** GRAD_SHIFT)
             for k in range(D):
                 crow[_U(cb + k)] = max16(add16(
                     add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),

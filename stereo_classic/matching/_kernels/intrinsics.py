@@ -12,7 +12,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["add16", "sub16", "min16", "max16", "absdiff16", "and16", "shr16", "lshr16", "mulshr16", "popxor16",
+__all__ = ["add16", "sub16", "min16", "max16", "absdiff16", "and16", "shr16", "lshr16", "mulshr16", "mulhi16", "popxor16",
            "pick16", "eq16"]
 
 
@@ -145,6 +145,20 @@ def mulshr16(typingctx, a, m, n):
         return builder.trunc(builder.lshr(builder.mul(a32, m32), n32), ir.IntType(16))
 
     return types.int16(types.int16, types.int16, types.int16), codegen
+
+
+@intrinsic
+def mulhi16(typingctx, a, m):
+    """``(a * m) >> 16`` with ``a`` and ``m`` read as unsigned 16-bit, as int16: the high half of the product
+    (vpmulhuw, 32 lanes, where ``mulshr16`` widens to 32-bit lanes and narrows back)."""
+    _check_int16(a, m)
+
+    def codegen(context, builder, signature, args):
+        i32 = ir.IntType(32)
+        prod = builder.mul(builder.zext(args[0], i32), builder.zext(args[1], i32))
+        return builder.trunc(builder.lshr(prod, ir.Constant(i32, 16)), ir.IntType(16))
+
+    return types.int16(types.int16, types.int16), codegen
 
 
 @intrinsic

@@ -8,10 +8,12 @@ The directions are OpenCV MODE_SGBM_3WAY's: from the left, from above, from the 
   pixel ``x`` of row ``r`` is written at slot ``x - r + n_rows`` and its predecessor read one slot on) and
   the left path, and stores their sum per pixel (``srow``);
 * a right-to-left sweep adds the right path, keeping the complete sum in ``srow`` and its minimum per pixel;
+  it runs one row behind, in the same pass over the columns as the next row's left-to-right sweep (two
+  independent pixel-to-pixel chains side by side: at short ranges the chains' latency set the pace);
 * ``select.right_view_row`` finds the right view's winners and ``select.select_row`` resolves the row
   (winner-takes-all, uniqueness, subpixel, left-right check).
 
-Per thread this touches about 3 x W x D x 2 bytes (1 MB at 1242 x 128), which stays in L2, against a
+Per thread this touches about 5 x W x D x 2 bytes (1.6 MB at 1242 x 128), which stays in L2, against a
 H x W x D volume written and read back by the two-pass kernel. The values are those of
 :func:`.aggregate.sgm_pass` run forward (left, top) then backward (right) over the same stripe and warm-up rows,
 bit for bit (checked against the numpy reference by the tests).
@@ -77,12 +79,13 @@ class RowPassBuffers(NamedTuple):
 
     Attributes
     ----------
-    costs : (R + 1, W * D) int16
-        Cost of every pixel of a row: row R for the current row, rows 0 .. R - 1 for a stripe's last R rows (R =
-        the warm-up rows), which the same worker's next stripe warms up on (one array, so that the kernel reads
-        every row's costs from one buffer: a choice between two buffers cost the loops their vectorisation).
-    srow : (W * D,) int16
-        Left + top sums of the row, then (after the right-to-left sweep) the complete sums.
+    costs : (R + 2, W * D) int16
+        Cost of every pixel of a row: rows R and R + 1 for the current rows (by the row's parity: a row's costs are
+        read again by its right-to-left sweep, one pass after its own), rows 0 .. R - 1 for a stripe's last R rows
+        (R = the warm-up rows), which the same worker's next stripe warms up on (one array, so that the kernel
+        reads every row's costs from one buffer: a choice between two buffers cost the loops their vectorisation).
+    srow : (2, W * D) int16
+        Per row parity: left + top sums of the row, then (after its right-to-left sweep) the complete sums.
     path_v : ((W + H + 1) * E,) int16
         Skewed top-path vectors, sentinels at both disparity ends.
     min_v : (W + H + 1,) int16
@@ -90,6 +93,9 @@ class RowPassBuffers(NamedTuple):
     path_h : (2 * E,) int16
         The horizontal path's previous and current vector.
     min_h : (2,) int16
+    path_r, min_r : (2 * E,), (2,) int16
+        The same for the right path (the row above's, swept beside the left path of the row: its own arrays, as
+        two slots of ``path_h`` cost the loops their speed-up).
     row_min : (W,) int16
         Minimum complete sum per pixel of the row.
     k_index : (D,) int16
@@ -110,6 +116,8 @@ class RowPassBuffers(NamedTuple):
     min_v: np.ndarray
     path_h: np.ndarray
     min_h: np.ndarray
+    path_r: np.ndarray
+    min_r: np.ndarray
     row_min: np.ndarray
     k_index: np.ndarray
     right_sums: np.ndarray
@@ -129,8 +137,9 @@ def row_pass_buffers(H: int, W: int, D: int, warm_rows: int = 0) -> RowPassBuffe
     ph = np.zeros((2, E), np.int16)
     ph[:, 0] = ph[:, E - 1] = _SENTINEL
     return RowPassBuffers(
-        costs=np.empty((warm_rows + 1, W * D), np.int16), srow=np.empty(W * D, np.int16), path_v=pv.reshape(-1),
+        costs=np.empty((warm_rows + 2, W * D), np.int16), srow=np.empty((2, W * D), np.int16), path_v=pv.reshape(-1),
         min_v=np.zeros(slots, np.int16), path_h=ph.reshape(-1), min_h=np.zeros(2, np.int16),
+        path_r=ph.reshape(-1).copy(), min_r=np.zeros(2, np.int16),
         row_min=np.empty(W, np.int16), k_index=np.arange(D, dtype=np.int16),
         right_sums=np.empty(W + D - 1, np.int16), right_k=np.empty(W + D - 1, np.int16),
         best=np.empty(W, np.int64), counts=np.zeros(2, np.int64),
@@ -141,13 +150,17 @@ def row_pass_bytes(H: int, W: int, D: int, warm_rows: int = 0) -> int:
     """Bytes of ``row_pass_buffers(H, W, D, warm_rows)``."""
     E = D + 2
     slots = W + H + 1
-    return (2 * (warm_rows + 2) * W * D + 2 * slots * E + 2 * slots + 2 * 2 * E + 4 + 2 * W + 2 * D
+    return (2 * (warm_rows + 4) * W * D + 2 * slots * E + 2 * slots + 2 * 2 * 2 * E + 8 + 2 * W + 2 * D
             + 2 * 2 * (W + D - 1) + 8 * W + 16 + 2 * 2 * W)
 
 
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cover - numba
     """Aggregate the left, top and right paths over ``plan``'s rows and resolve each row at once.
+
+    One pass over the columns per row r runs the left-to-right sweep of row r (top and left paths) and, beside it,
+    the right-to-left sweep of row r - 1 (right path), which is then resolved; one more pass ends the stripe. The
+    two rows use separate buffers, so the numbers are those of one sweep after the other.
 
     Parameters
     ----------
@@ -171,11 +184,13 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     pscale = images.penalty_scale
     adaptive = settings.adaptive_p2
     dmin = cost.min_disparity
-    srow = bufs.srow
+    srows = bufs.srow
     PV = bufs.path_v
     MV = bufs.min_v
     PH = bufs.path_h
     MH = bufs.min_h
+    PR = bufs.path_r
+    MR = bufs.min_r
     nsrow = bufs.row_min
     kidx = bufs.k_index
     rv = bufs.right_sums
@@ -190,85 +205,95 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     cached = plan.cached
     tail_start = n_rows - plan.tail
     costs = bufs.costs
-    current = costs.shape[0] - 1
-    for r in range(n_rows):
+    n_warm = costs.shape[0] - 2  # rows 0 .. n_warm - 1: the tail's costs; the last two: the two current rows
+    slot = 0  # costs row of row r
+    slot_p = 0  # costs row of row r - 1
+    for r in range(n_rows + 1):
         y = plan.y_first + r
+        cur = r < n_rows  # row r: the left-to-right sweep in this pass over the columns
         warming = r < plan.warmup
-        if warming and cached:  # made by the stripe above on this worker (its last rows)
-            crow = costs[r]
-        else:
-            crow = costs[r - tail_start if r >= tail_start else current]
-            row_cost(images, cost, y, r == 0 and not cached, 1, cbufs, crow)
-        # --- left to right: the top path (slot w = x - r + n_rows, predecessor at w + 1) and the left path
+        prev = r - 1 >= plan.warmup  # row r - 1: the right-to-left sweep in this pass
+        srow = srows[r & 1]  # row r's sums; row r - 1's are in the other row of srows
+        srow_p = srows[1 - (r & 1)]
+        slot_p = slot
+        if cur:
+            if warming and cached:  # made by the stripe above on this worker (its last rows)
+                slot = r
+            else:
+                slot = r - tail_start if r >= tail_start else n_warm + (r & 1)
+                row_cost(images, cost, y, r == 0 and not cached, 1, cbufs, costs[slot])
+        crow = costs[slot]
+        crow_p = costs[slot_p]
         for k in range(D):
             PH[k + 1] = zero
+            PR[k + 1] = zero
         MH[0] = zero
-        for x in range(W):
-            cb = x * D
-            p1, p2 = pixel_penalties(p1_32, p2_32, pscale[y, x])  # times the pixel's weak-texture factor
-            wvs = x - r + n_rows
-            wv = wvs * E
-            rvb = wv + E
-            mv = MV[wvs + 1]
-            qv = add16(mv, _p2_at(limg, y, x, y - 1, x, p1, p2, adaptive) if adaptive else p2)
-            nv = big
-            if warming:
-                for k in range(D):
-                    vv = _lr(PV, rvb, crow[_U(cb + k)], mv, qv, p1, k)
-                    PV[_U(wv + 1 + k)] = vv
-                    nv = min16(nv, vv)
-            else:
-                rhs = x & 1
+        MR[0] = zero
+        yp = y - 1
+        for i in range(W):
+            if prev:  # --- row r - 1, right to left: the right path, the complete sums and their minimum
+                x = W - 1 - i
+                cb = x * D
+                p1, p2 = pixel_penalties(p1_32, p2_32, pscale[yp, x])
+                rhs = i & 1
                 whs = 1 - rhs
-                mh = MH[rhs]
-                qh = add16(mh, _p2_at(limg, y, x, y, x - 1, p1, p2, adaptive) if adaptive else p2)
+                mh = MR[rhs]
+                qh = add16(mh, _p2_at(limg, yp, x, yp, x + 1, p1, p2, adaptive) if adaptive else p2)
                 wh = whs * E
                 rh = rhs * E
                 nh = big
+                ns = big
                 for k in range(D):
-                    c = crow[_U(cb + k)]
-                    vv = _lr(PV, rvb, c, mv, qv, p1, k)
-                    vh = _lr(PH, rh, c, mh, qh, p1, k)
-                    PV[_U(wv + 1 + k)] = vv
-                    PH[_U(wh + 1 + k)] = vh
-                    nv = min16(nv, vv)
+                    vh = _lr(PR, rh, crow_p[_U(cb + k)], mh, qh, p1, k)
+                    PR[_U(wh + 1 + k)] = vh
                     nh = min16(nh, vh)
-                    srow[_U(cb + k)] = add16(vv, vh)
-                MH[whs] = nh
-            MV[wvs] = nv
-        if warming:
+                    sm = add16(vh, srow_p[_U(cb + k)])
+                    srow_p[_U(cb + k)] = sm
+                    ns = min16(ns, sm)
+                MR[whs] = nh
+                nsrow[x] = ns
+            if cur:  # --- row r, left to right: the top path (slot w = x - r + n_rows, predecessor at w + 1), left
+                x = i
+                cb = x * D
+                p1, p2 = pixel_penalties(p1_32, p2_32, pscale[y, x])  # times the pixel's weak-texture factor
+                wvs = x - r + n_rows
+                wv = wvs * E
+                rvb = wv + E
+                mv = MV[wvs + 1]
+                qv = add16(mv, _p2_at(limg, y, x, y - 1, x, p1, p2, adaptive) if adaptive else p2)
+                nv = big
+                if warming:
+                    for k in range(D):
+                        vv = _lr(PV, rvb, crow[_U(cb + k)], mv, qv, p1, k)
+                        PV[_U(wv + 1 + k)] = vv
+                        nv = min16(nv, vv)
+                else:
+                    rhs = x & 1
+                    whs = 1 - rhs
+                    mh = MH[rhs]
+                    qh = add16(mh, _p2_at(limg, y, x, y, x - 1, p1, p2, adaptive) if adaptive else p2)
+                    wh = whs * E
+                    rh = rhs * E
+                    nh = big
+                    for k in range(D):
+                        c = crow[_U(cb + k)]
+                        vv = _lr(PV, rvb, c, mv, qv, p1, k)
+                        vh = _lr(PH, rh, c, mh, qh, p1, k)
+                        PV[_U(wv + 1 + k)] = vv
+                        PH[_U(wh + 1 + k)] = vh
+                        nv = min16(nv, vv)
+                        nh = min16(nh, vh)
+                        srow[_U(cb + k)] = add16(vv, vh)
+                    MH[whs] = nh
+                MV[wvs] = nv
+        if not prev:
             continue
-        # --- right to left: the right path, the complete sums and their minimum
-        for k in range(D):
-            PH[k + 1] = zero
-        MH[0] = zero
-        for i in range(W):
-            x = W - 1 - i
-            cb = x * D
-            p1, p2 = pixel_penalties(p1_32, p2_32, pscale[y, x])
-            rhs = i & 1
-            whs = 1 - rhs
-            mh = MH[rhs]
-            qh = add16(mh, _p2_at(limg, y, x, y, x + 1, p1, p2, adaptive) if adaptive else p2)
-            wh = whs * E
-            rh = rhs * E
-            nh = big
-            ns = big
-            for k in range(D):
-                vh = _lr(PH, rh, crow[_U(cb + k)], mh, qh, p1, k)
-                PH[_U(wh + 1 + k)] = vh
-                nh = min16(nh, vh)
-                sm = add16(vh, srow[_U(cb + k)])
-                srow[_U(cb + k)] = sm
-                ns = min16(ns, sm)
-            MH[whs] = nh
-            nsrow[x] = ns
         if right_view:
-            right_view_row(srow, rv, rd, W, D)
+            right_view_row(srow_p, rv, rd, W, D)
         if plan.keep_sums:
-            base = y * W * D
+            base = yp * W * D
             for j in range(W * D):
-                Sf[_U(base + j)] = srow[_U(j)]
+                Sf[_U(base + j)] = srow_p[_U(j)]
         if plan.select:
-            select_row(y, settings, dmin, cost.num_disparities, srow, nsrow, kidx, rv, rd, bufs.best, bufs.counts,
+            select_row(yp, settings, dmin, cost.num_disparities, srow_p, nsrow, kidx, rv, rd, bufs.best, bufs.counts,
                        bufs.claim_cost, bufs.claim_k, out)
