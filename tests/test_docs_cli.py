@@ -14,6 +14,7 @@ from tests.conftest import REPO
 
 CLI_MD = REPO / "docs" / "cli.md"
 GUIDE_MD = REPO / "docs" / "guide.md"
+ROS_MD = REPO / "docs" / "ros.md"
 
 #: (label, module with main(argv), the argv before --help, the pages that document it)
 COMMANDS = [
@@ -22,6 +23,7 @@ COMMANDS = [
     ("stereo_classic disparity", "stereo_classic.cli", ["disparity"], (CLI_MD,)),
     ("stereo_classic calibrate", "stereo_classic.cli", ["calibrate"], (CLI_MD,)),
     ("stereo_classic guide", "stereo_classic.cli", ["guide"], (GUIDE_MD, CLI_MD)),
+    ("stereo_classic ros", "stereo_classic.cli", ["ros"], (ROS_MD, CLI_MD)),
     ("detectors", "detectors.cli", [], (CLI_MD,)),
     ("detectors fetch", "detectors.cli", ["fetch"], (CLI_MD,)),
     ("detectors detect", "detectors.cli", ["detect"], (CLI_MD,)),
