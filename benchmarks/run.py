@@ -207,7 +207,13 @@ def family_means(accuracy: dict[str, dict[str, Any]], families: dict[str, str], 
 def _speed_rows(name: str, kind: str, note: str, size: tuple[int, int], ndisp: int, setup: Setup,
                 methods: Sequence[Method], left: np.ndarray, right: np.ndarray, repeat: int, progress: _Progress) -> tuple[list[dict], dict, dict]:
     runners, first, outputs, errors = _first_calls(methods, setup, left, right, progress, f"{name} t{setup.threads}")
-    timed = time_interleaved(runners, repeat, first_call=False, on_step=lambda n: progress.step(f"{name} t{setup.threads} {n}")) if runners else {}
+    step = lambda n: progress.step(f"{name} t{setup.threads} {n}")  # noqa: E731
+    peers = {m.name for m in methods if m.family == "peer"}
+    # the accuracy peers (single-threaded, seconds a frame) are timed once: their time is quoted, not compared
+    fast = {n: r for n, r in runners.items() if n not in peers}
+    slow = {n: r for n, r in runners.items() if n in peers}
+    timed = time_interleaved(fast, repeat, first_call=False, on_step=step) if fast else {}
+    timed.update(time_interleaved(slow, 1, first_call=False, on_step=step) if slow else {})
     rows = []
     for m in methods:
         row: dict[str, Any] = {"input": name, "kind": kind, "note": note, "width": size[0], "height": size[1],
@@ -290,7 +296,9 @@ def run_benchmark(config: BenchConfig, *, argv: Sequence[str] | None = None) -> 
             for t in threads:
                 setup = Setup(num_disparities=ndisp, min_disparity=0, block_size=config.block_size, threads=t)
                 log.info("scene %s (%dx%d, %d disparities), %d thread(s)", scene.name, *scene.size, ndisp, t)
-                rows, outs, errs = _speed_rows(scene.name, "scene", scene.source, scene.size, ndisp, setup, available,
+                # an accuracy peer runs single-threaded whatever the setup: it runs at the accuracy thread count only
+                at_t = [m for m in available if m.family != "peer" or t == acc_threads]
+                rows, outs, errs = _speed_rows(scene.name, "scene", scene.source, scene.size, ndisp, setup, at_t,
                                                scene.left, scene.right, config.repeat, progress)
                 report["speed"] += rows
                 if t == acc_threads:
@@ -308,12 +316,13 @@ def run_benchmark(config: BenchConfig, *, argv: Sequence[str] | None = None) -> 
                         per_method[m.name] = {"error": report["errors"].get(scene.name, {}).get(m.name, m.reason or "not available")}
                 report["accuracy"][scene.name] = per_method
 
+        speed_methods = [m for m in available if m.family != "peer"]  # the synthetic sizes are for speed alone
         for inp in extra_inputs:
             for t in threads:
                 setup = Setup(num_disparities=inp.num_disparities, min_disparity=0, block_size=config.block_size, threads=t)
                 log.info("speed input %s, %d thread(s): %s", inp.name, t, inp.note)
                 rows, _outs, _errs = _speed_rows(inp.name, "synthetic", inp.note, inp.size, inp.num_disparities, setup,
-                                                 available, inp.left, inp.right, config.repeat, progress)
+                                                 speed_methods, inp.left, inp.right, config.repeat, progress)
                 report["speed"] += rows
     finally:
         progress.close()
@@ -326,7 +335,8 @@ def run_benchmark(config: BenchConfig, *, argv: Sequence[str] | None = None) -> 
         report["scaling"] = _scaling(config, scenes, extra_inputs, progress_enabled=config.progress)
 
     if config.memory and available:
-        report["memory"] = _memory(config, scenes, extra_inputs, available, onnx_specs, max(threads))
+        report["memory"] = _memory(config, scenes, extra_inputs, [m for m in available if m.family != "peer"],
+                                   onnx_specs, max(threads))
     if config.objects:
         report.update(_objects(config, scenes, arrays, threads))
     return report, arrays

@@ -20,7 +20,7 @@ from detectors.models import resolve_model
 from detectors.nms import nms
 from detectors.results import Detections
 
-__all__ = ["OnnxDetector"]
+__all__ = ["OnnxDetector", "session_options"]
 
 log = logging.getLogger(__name__)
 
@@ -28,6 +28,25 @@ _INPUT_DTYPES = {"tensor(float)": np.float32, "tensor(float16)": np.float16, "te
 _OUTPUT_DTYPES = {"tensor(float)": np.float32, "tensor(float16)": np.float16, "tensor(double)": np.float64,
                   "tensor(int64)": np.int64, "tensor(int32)": np.int32, "tensor(uint8)": np.uint8}
 _MAX_CANDIDATES = 30000
+
+
+def session_options(threads: int | None = None):
+    """ONNX Runtime session options for a network run inside the pipeline: quiet logs, full graph optimisation,
+    sequential execution with one inter-op thread, ``threads`` intra-op threads (None: ONNX Runtime's default), and
+    no busy-waiting between runs (onnxruntime's worker threads spin for the next run by default; in a pipeline the
+    stereo matcher runs next, and spinning threads would take its cores). Used by :class:`OnnxDetector` and by the
+    matcher's learned costs."""
+    import onnxruntime as ort
+
+    opts = ort.SessionOptions()
+    opts.log_severity_level = 3
+    opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
+    opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
+    opts.inter_op_num_threads = 1
+    if threads is not None:
+        opts.intra_op_num_threads = int(threads)
+    opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
+    return opts
 
 
 def _check_unit(value: object, name: str) -> float:
@@ -128,16 +147,7 @@ class OnnxDetector:
             self.model_path = resolve_model(model)
             source = str(self.model_path)
             hint = self.model_path.name
-        opts = ort.SessionOptions()
-        opts.log_severity_level = 3
-        opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
-        opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
-        opts.inter_op_num_threads = 1
-        if threads is not None:
-            opts.intra_op_num_threads = int(threads)
-        # onnxruntime's worker threads busy-wait for the next run by default; in a pipeline the stereo matcher
-        # runs next, and the spinning threads would take its cores
-        opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
+        opts = session_options(threads)
         where = self.model_path if self.model_path is not None else "<model bytes>"
         try:
             self.session = ort.InferenceSession(source, sess_options=opts, providers=list(providers))

@@ -123,20 +123,14 @@ class FeatureModel:
     def __init__(self, model: str | os.PathLike, *, provider: str = "cpu", threads: int | None = None) -> None:
         import onnxruntime as ort
 
+        from detectors.onnx_detector import session_options
+
         self.path = resolve(model)
         self.name = str(model)
         if isinstance(model, str) and model in SHIPPED_MODELS and _sha256(self.path) != SHIPPED_MODELS[model].sha256:
             raise FeatureModelError(f"`feature_model` {model!r}: {self.path} does not have the shipped sha256 "
                                     f"(broken install)")
-        opts = ort.SessionOptions()
-        opts.log_severity_level = 3
-        opts.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_ALL
-        opts.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
-        opts.inter_op_num_threads = 1
-        if threads is not None:
-            opts.intra_op_num_threads = int(threads)
-        # no busy-waiting between runs: the matcher's own threads run next (as detectors.OnnxDetector)
-        opts.add_session_config_entry("session.intra_op.allow_spinning", "0")
+        opts = session_options(threads)  # the detector's: no busy-waiting, the matcher's own threads run next
         try:
             self.session = ort.InferenceSession(str(self.path), sess_options=opts, providers=_providers(provider))
         except FeatureModelError:
