@@ -94,15 +94,29 @@ def format_table(rows: Sequence[dict]) -> str:
     return "\n".join(lines)
 
 
-if __name__ == "__main__":  # python -m benchmarks.detector_latency MODEL IMAGE...
+def main(argv: list[str] | None = None) -> int:
+    """``python -m benchmarks.detector_latency MODEL IMAGE...``: 0 printed, 1 unreadable image, 2 usage error."""
+    import argparse
     import sys
 
     from detectors.imageio import read_image
 
-    if len(sys.argv) < 3:
-        sys.exit("usage: python -m benchmarks.detector_latency MODEL IMAGE...")
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.detector_latency",
+                                     description="A detector's median latency per stage at 1 and 2 threads.")
+    parser.add_argument("model", metavar="MODEL", help="model name or .onnx path")
+    parser.add_argument("images", metavar="IMAGE", nargs="+", help="image files")
     try:
-        imgs = [read_image(p) for p in sys.argv[2:]]
+        args = parser.parse_args(argv)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    try:
+        imgs = [read_image(p) for p in args.images]
     except (FileNotFoundError, ValueError) as exc:
-        sys.exit(f"benchmarks.detector_latency: {exc}")
-    print(format_table(measure_latency(sys.argv[1], imgs)))
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
+    print(format_table(measure_latency(args.model, imgs)))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -24,6 +24,7 @@ from pathlib import Path
 import cv2
 
 from benchmarks.guide_cost import oakd_pipeline
+from benchmarks.report import signed_zero_free
 from stereo_classic.guide import Guide, fit_ground
 from stereo_classic.guide.core import frame_points
 from stereo_classic.guide.gravity import estimate_gravity
@@ -72,7 +73,7 @@ def measure(data: Path, frames: int = 5, model: str | None = "yolox_nano", save:
 
 
 def _fmt(v: float | None, spec: str) -> str:
-    return "-" if v is None else format(v, spec)
+    return "-" if v is None else signed_zero_free(format(v, spec), spec)
 
 
 def main(argv: list[str] | None = None) -> int:

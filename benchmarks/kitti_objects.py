@@ -38,6 +38,8 @@ from typing import Any
 
 import numpy as np
 
+from benchmarks.report import signed_zero_free
+
 __all__ = ["DEFAULT_METHODS", "half_box_median", "in_view", "kitti_object_benchmark", "main", "match_labels",
            "render_markdown"]
 
@@ -324,7 +326,7 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
 
 
 def _fmt(value: float | None, spec: str = ".2f", suffix: str = "") -> str:
-    return "–" if value is None else f"{value:{spec}}{suffix}"
+    return "–" if value is None else f"{signed_zero_free(format(value, spec), spec)}{suffix}"
 
 
 _TITLES = {"run": "`run`", "run-mccnn": "`run --cost mccnn`", "ocv-3way": "3WAY + fusion",

@@ -50,7 +50,7 @@ def _shares(left, right, num: int) -> tuple[float, float, str, float]:
 def main(argv=None) -> int:
     from stereo_classic.datasets import iter_scenes
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m benchmarks.pair_check", description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=REPO.parent / "shared" / "data")
     a = ap.parse_args(argv)
     scenes = list(iter_scenes(a.data))

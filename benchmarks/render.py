@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -547,19 +548,27 @@ def readme_markdown(report: Mapping[str, Any]) -> str:
     return "\n".join(lines)
 
 
-if __name__ == "__main__":
+def main(argv: list[str] | None = None) -> int:
+    """``python -m benchmarks.render [--full] REPORT.json``: 0 printed, 1 unreadable report, 2 usage error."""
+    import argparse
     import json
-    import sys
 
-    args = sys.argv[1:]
-    full = "--full" in args
-    args = [a for a in args if a != "--full"]
-    if len(args) != 1:
-        print("usage: python -m benchmarks.render [--full] REPORT.json", file=sys.stderr)
-        sys.exit(2)
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.render",
+                                     description="Print the README's results block of a benchmark report.")
+    parser.add_argument("report", metavar="REPORT.json", help="the report.json of `python -m benchmarks`")
+    parser.add_argument("--full", action="store_true", help="the summary tables instead of the README's block")
     try:
-        data = json.loads(Path(args[0]).read_text(encoding="utf-8"))
-        print(summary_markdown(data) if full else readme_markdown(data))
+        args = parser.parse_args(argv)
+    except SystemExit as exc:
+        return int(exc.code or 0)
+    try:
+        data = json.loads(Path(args.report).read_text(encoding="utf-8"))
+        print(summary_markdown(data) if args.full else readme_markdown(data))
     except (OSError, ValueError, KeyError) as exc:
-        print(f"error: {args[0]}: {exc}", file=sys.stderr)
-        sys.exit(1)
+        print(f"error: {args.report}: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

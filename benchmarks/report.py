@@ -27,6 +27,7 @@ __all__ = [
     "write_json_atomic",
     "jsonable",
     "fmt",
+    "signed_zero_free",
     "figure_disparities",
     "figure_bad2",
     "figure_speed",
@@ -54,8 +55,22 @@ class Section:
     level: int = 2
 
 
+def signed_zero_free(text: str, spec: str) -> str:
+    """``text`` (a number formatted with ``spec``) with a zero that rounding left signed written unsigned: a table
+    never shows "-0.0" (a value of -0.04 at one decimal is 0.0, not a negative error).
+
+    >>> signed_zero_free(format(-0.04, "+.1f"), "+.1f"), signed_zero_free(format(-0.04, ".1f"), ".1f")
+    ('+0.0', '0.0')
+    """
+    try:
+        zero = float(text) == 0.0
+    except ValueError:
+        return text
+    return format(0.0, spec) if zero else text
+
+
 def fmt(value: Any, digits: int = 2) -> str:
-    """A number for a table cell; ``None``/NaN -> "n/a"."""
+    """A number for a table cell; ``None``/NaN -> "n/a"; never "-0.00"."""
     if value is None:
         return "n/a"
     if isinstance(value, (bool, np.bool_)):
@@ -65,7 +80,7 @@ def fmt(value: Any, digits: int = 2) -> str:
     if isinstance(value, (float, np.floating)):
         if not math.isfinite(float(value)):
             return "n/a"
-        return f"{float(value):.{digits}f}"
+        return signed_zero_free(f"{float(value):.{digits}f}", f".{digits}f")
     return str(value)
 
 

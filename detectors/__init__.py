@@ -8,7 +8,7 @@ from detectors.classes import COCO_CATEGORY_IDS, COCO_CLASSES
 from detectors.decoders import FAMILIES
 from detectors.errors import ModelError, ModelNotFoundError
 from detectors.letterbox import Letterbox, Preprocessing
-from detectors.models import KNOWN_MODELS, cache_dir, download_model, resolve_model
+from detectors.models import KNOWN_MODELS, PACKAGED_MODELS, cache_dir, download_model, resolve_model
 from detectors.nms import box_iou, nms
 from detectors.onnx_detector import OnnxDetector
 from detectors.results import Detections
@@ -23,6 +23,7 @@ __all__ = [
     "ModelError",
     "ModelNotFoundError",
     "OnnxDetector",
+    "PACKAGED_MODELS",
     "Preprocessing",
     "box_iou",
     "cache_dir",

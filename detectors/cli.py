@@ -1,6 +1,9 @@
 """``python -m detectors``: fetch a model into the cache, or run a detector on images.
 
-Exit codes: 0 success, 1 runtime failure (missing model, download failed, bad file), 2 usage error.
+``fetch`` knows the official files whose sha256 is recorded in :data:`detectors.models.KNOWN_MODELS` (today only
+``yolox_nano``, which also ships with the package); any other exported ONNX detector is used by giving its path
+to ``--model`` or putting ``NAME.onnx`` in ``$STEREO_CLASSIC_MODELS``. Every failure is one line ``error: ...``
+on stderr. Exit codes: 0 success, 1 runtime failure (missing model, download failed, bad file), 2 usage error.
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "split_classes"]
 
 log = logging.getLogger("detectors")
 
@@ -24,7 +27,8 @@ def build_parser() -> argparse.ArgumentParser:
     verbosity.add_argument("-v", "--verbose", action="count", default=0, help="more log output")
     verbosity.add_argument("-q", "--quiet", action="store_true", help="only errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    fetch = sub.add_parser("fetch", help="download a model's official file into the user cache (sha256 checked)")
+    fetch = sub.add_parser("fetch", help="download a known model's official file into the user cache (sha256 "
+                                         "checked); known: yolox_nano (also shipped with the package)")
     fetch.add_argument("name", nargs="?", default="yolox_nano", help="model name (default yolox_nano)")
     fetch.add_argument("--force", action="store_true", help="download again even when the cache holds a good copy")
     det = sub.add_parser("detect", help="detect objects in images; JSON lines on stdout (one per image)")
@@ -33,14 +37,42 @@ def build_parser() -> argparse.ArgumentParser:
     det.add_argument("--conf", type=float, default=0.3, help="confidence threshold (default 0.3)")
     det.add_argument("--iou", type=float, default=0.45, help="NMS IoU threshold (default 0.45)")
     det.add_argument("--threads", type=int, default=None, help="onnxruntime threads")
-    det.add_argument("--classes", nargs="+", default=None, help="only these class names")
+    det.add_argument("--classes", nargs="+", default=None, metavar="LIST",
+                     help="only these class names, comma-separated (e.g. car,person; spaces work too)")
     return parser
+
+
+class _Formatter(logging.Formatter):
+    """Messages as they are; an error is one line ``error: ...`` (the prefix every command of the project uses)."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        text = super().format(record)
+        return f"error: {text}" if record.levelno >= logging.ERROR else text
+
+
+class _StderrHandler(logging.StreamHandler):
+    """To the ``sys.stderr`` of the moment (not the one of the first call: a test's captured stream closes)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.stream = sys.stderr
+        super().emit(record)
+
+
+def split_classes(values: Sequence[str] | None) -> list[str] | None:
+    """Class names given as ``car,person`` or ``car person`` (or both): one flat list, None when none.
+
+    >>> split_classes(["car,person", "bus"])
+    ['car', 'person', 'bus']
+    """
+    if not values:
+        return None
+    return [name.strip() for value in values for name in value.split(",") if name.strip()] or None
 
 
 def _configure_logging(verbose: int, quiet: bool) -> None:
     level = logging.ERROR if quiet else (logging.DEBUG if verbose >= 1 else logging.INFO)
-    handler = logging.StreamHandler(sys.stderr)
-    handler.setFormatter(logging.Formatter("%(message)s"))
+    handler = _StderrHandler()
+    handler.setFormatter(_Formatter("%(message)s"))
     root = logging.getLogger("detectors")
     root.handlers[:] = [handler]
     root.setLevel(level)
@@ -63,7 +95,9 @@ def _fetch(args) -> int:
 
     known = KNOWN_MODELS.get(args.name)
     if known is None:
-        log.error("no official download for model %r; known: %s", args.name, ", ".join(sorted(KNOWN_MODELS)))
+        log.error("no official download for model %r (known: %s); for another exported ONNX detector give its "
+                  "path to --model, or put %s.onnx in a folder and set STEREO_CLASSIC_MODELS to that folder",
+                  args.name, ", ".join(sorted(KNOWN_MODELS)), args.name)
         return 2
     target = cache_dir() / f"{args.name}.onnx"
     unwritable = _unwritable(target.parent)
@@ -99,11 +133,11 @@ def _detect(args) -> int:
 
     try:
         detector = OnnxDetector(args.model or "yolox_nano", conf_threshold=args.conf, iou_threshold=args.iou,
-                                threads=args.threads, classes=args.classes)
+                                threads=args.threads, classes=split_classes(args.classes))
     except (ValueError, FileNotFoundError) as exc:
         if args.verbose:
             log.exception("cannot open the detector")
-        log.error("error: %s", exc)
+        log.error("%s", exc)
         return 1 if isinstance(exc, FileNotFoundError) or type(exc).__name__ == "ModelError" else 2
     status = 0
     times: dict[str, list[float]] = {}
@@ -124,7 +158,7 @@ def _detect(args) -> int:
         except (ValueError, RuntimeError, MemoryError) as exc:  # ModelError: the model fails on real images
             if args.verbose:
                 log.exception("detection failed")
-            log.error("error: %s: %s", path, exc)
+            log.error("%s: %s", path, exc)
             status = 1
             if type(exc).__name__ == "ModelError":
                 break  # the next images would fail the same way

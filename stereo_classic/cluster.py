@@ -56,11 +56,18 @@ class DaskNotInstalledError(ImportError):
 
 
 def import_distributed() -> Any:
-    """The ``distributed`` module, or :class:`DaskNotInstalledError` saying in one line what to install."""
+    """The ``distributed`` module, or :class:`DaskNotInstalledError` saying in one line what to install.
+
+    The level the caller gave the ``distributed`` logger (the command line: WARNING unless ``-v``) is kept:
+    importing it sets its own (INFO, about 50 lines a run)."""
+    level = logging.getLogger("distributed").level
     try:
-        return importlib.import_module("distributed")
+        module = importlib.import_module("distributed")
     except ImportError:
         raise DaskNotInstalledError(INSTALL_HINT) from None
+    if level:
+        logging.getLogger("distributed").setLevel(level)
+    return module
 
 
 # --------------------------------------------------------------------------------------------------

@@ -237,7 +237,8 @@ class Localizer:
             detections, t_detect = self._detect(left)
         t2, c2 = time.perf_counter(), time.process_time()
         if detections is not None and len(detections):
-            objects = localize(detections, dmap, self.rig, self.fusion, rng=self.seed)
+            objects = localize(detections, dmap, self.rig, self.fusion, rng=self.seed,
+                               range_warning=self.checker is None)  # the checks mark them instead
         else:
             objects = LocalizedObjects.empty(self.fusion.method)
         t3, c3 = time.perf_counter(), time.process_time()

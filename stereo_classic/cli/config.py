@@ -137,10 +137,11 @@ def _check(key: str, value: Any, kind: str, where: str) -> Any:
         return float(value)
     if kind == "list[str]":
         if isinstance(value, str):
-            value = [v.strip() for v in value.split(",") if v.strip()]
+            value = [value]
         if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
             fail("a list of strings")
-        return list(value)
+        # "car,person", ["car", "person"] and ["car,person"] (a flag given as words or with commas) alike
+        return [name.strip() for v in value for name in v.split(",") if name.strip()]
     if kind == "range":
         if isinstance(value, str):  # as on the command line: "0.5 60"
             value = value.replace(",", " ").split()
@@ -213,6 +214,10 @@ def load_config(path: str | os.PathLike[str]) -> dict[str, Any]:
             if unknown:
                 raise ConfigError(f"{p}: unknown [matcher] key {unknown[0]!r}; expected some of: {', '.join(fields)}")
             out["matcher"] = {k: _matcher_value(k, v, fields[k], str(p)) for k, v in value.items()}
+            try:  # the table's values checked as SGMParams checks them, so that the error names this file
+                SGMParams(**out["matcher"])
+            except (TypeError, ValueError) as exc:
+                raise ConfigError(f"{p}: [matcher] {exc}") from None
             continue
         if key not in RUN_DEFAULTS:
             raise ConfigError(f"{p}: unknown key {key!r}; expected some of: {', '.join(RUN_DEFAULTS)}, [matcher]")

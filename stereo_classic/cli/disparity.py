@@ -1,7 +1,8 @@
 """``python -m stereo_classic disparity LEFT RIGHT -o out.pfm``: disparity of one rectified pair.
 
 Writes the left-view disparity as PFM (float32 pixels, NaN where unknown) and a TURBO-colourised
-PNG beside it (unknown pixels black), and prints the valid fraction and a timing table on stdout.
+PNG beside it (unknown pixels black), and prints the valid fraction on stdout and a timing table on stderr
+(as ``run``: data on stdout, timings with the logs).
 """
 
 from __future__ import annotations
@@ -118,15 +119,15 @@ def func(args: argparse.Namespace) -> int:
         jobs.append((png, lambda path: io.write_image(path, colour)))
     write_all_or_nothing(jobs)
     log.info("wrote %s%s", out, f" and {png}" if png is not None else "")
-    _print_summary(dmap, sys.stdout)
+    _print_summary(dmap, sys.stdout, sys.stderr)
     return 0
 
 
-def _print_summary(dmap: DisparityMap, stream: Any) -> None:
+def _print_summary(dmap: DisparityMap, stream: Any, timings: Any) -> None:
     v = dmap.validity
     measured = v["valid"] - (v.get("filled") or 0)  # the files hold these; the filled ones are not written
     print(f"valid pixels: {measured} of {v['pixels']} ({100.0 * dmap.valid_fraction:.1f} %)"
           + (f", {v['filled']} more filled (not written)" if v.get("filled") else ""), file=stream)
-    print("stage         ms", file=stream)
+    print("stage         ms", file=timings)
     for stage, ms in dmap.timings_ms.items():
-        print(f"{stage:<12}{ms:>8.1f}", file=stream)
+        print(f"{stage:<12}{ms:>8.1f}", file=timings)

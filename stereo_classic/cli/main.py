@@ -49,6 +49,8 @@ def _configure_logging(verbose: int, quiet: bool) -> None:
     root = logging.getLogger()
     root.handlers[:] = [handler]
     root.setLevel(level)
+    # Dask's own INFO lines (scheduler, nanny, worker start/stop: about 50 a run) only with -v
+    logging.getLogger("distributed").setLevel(level if verbose else max(level, logging.WARNING))
 
 
 def main(argv: Sequence[str] | None = None) -> int:

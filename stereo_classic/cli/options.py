@@ -85,9 +85,11 @@ def _scalar_type(field: dataclasses.Field) -> type:
     raise TypeError(f"field {field.name!r}: cannot derive a command-line type; give metadata 'parse'")
 
 
-def _shown(value: Any) -> str:
+def _shown(value: Any, field: dataclasses.Field) -> str:
+    """A default as its flag is written: values given as several words (``--depth-range 0.3 80.0``) with spaces,
+    a pair read from one word (the census window (9, 7)) as ``9x7``, as the config and the docs write it."""
     if isinstance(value, (tuple, list)):
-        return " ".join(str(v) for v in value)
+        return (" " if "nargs" in field.metadata else "x").join(str(v) for v in value)
     return str(value)
 
 
@@ -124,7 +126,7 @@ def add_options(group: Any, cls: type, *, defaults: Any = None, dest_prefix: str
                     kwargs[key] = meta[key]
             value = getattr(shown, field.name) if shown is not None else None
             if value is not None and field.name not in overrides:
-                text += f" (default: {_shown(value)})"
+                text += f" (default: {_shown(value, field)})"
         default = getattr(defaults, field.name) if defaults is not None else None
         group.add_argument(flag_of(cls, field.name), dest=f"{dest_prefix}{field.name}", default=default,
                            help=text.replace("%", "%%"), **kwargs)

@@ -72,8 +72,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     out = p.add_argument_group("output")
     out.add_argument("-o", "--output", default=None, metavar="DIR", help="output folder (default: stereo_out)")
     out.add_argument("--save", default=None, metavar="LIST",
-                     help=f"comma-separated outputs among {','.join(k for k in SAVE_KINDS if k != 'ply')} "
-                          f"(default: {','.join(DEFAULT_SAVE)}; dense, the filled disparity, and confidence only when named)")
+                     help=f"comma-separated outputs among {','.join(SAVE_KINDS)},mcap "
+                          f"(default: {','.join(DEFAULT_SAVE)}; dense, the filled disparity, confidence, ply and mcap "
+                          "(results.mcap, a ROS 2 recording) only when named; --ply adds the point cloud to any list)")
     out.add_argument("--ply", action=argparse.BooleanOptionalAction, default=None,
                      help="also write a coloured PLY point cloud")
     out.add_argument("--resume", action="store_true", help="skip frames whose outputs are all present")
@@ -112,8 +113,8 @@ def add_pipeline_options(p: Any) -> None:
                      help="ONNX detector name or path, or 'none' (default: yolox_nano)")
     det.add_argument("--conf", type=float, default=None, help="confidence threshold (default 0.3)")
     det.add_argument("--iou", type=float, default=None, help="NMS IoU threshold (default 0.45)")
-    det.add_argument("--classes", default=None, metavar="LIST",
-                     help="comma-separated class names to keep (e.g. car,person)")
+    det.add_argument("--classes", nargs="+", default=None, metavar="LIST",
+                     help="comma-separated class names to keep (e.g. car,person; spaces work too)")
 
     fus = p.add_argument_group("fusion")
     add_options(fus, FusionParams, show_defaults=FusionParams())

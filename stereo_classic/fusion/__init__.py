@@ -19,6 +19,7 @@ from __future__ import annotations
 from stereo_classic.fusion.localize import localize
 from stereo_classic.fusion.objects import STATUSES, LocalizedObjects, direction_phrase
 from stereo_classic.fusion.params import FusionInputError, FusionParams, as_generator
+from stereo_classic.fusion.range_hint import RangeWarning
 from stereo_classic.fusion.ransac import ransac_1d
 from stereo_classic.fusion.reference import sparse_depth_reference
 
@@ -30,6 +31,7 @@ __all__ = [
     "LocalizedObjects",
     "STATUSES",
     "direction_phrase",
+    "RangeWarning",
     "ransac_1d",
     "sparse_depth_reference",
 ]

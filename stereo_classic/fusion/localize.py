@@ -42,6 +42,7 @@ from stereo_classic.fusion.boxes import boxes_and_meta, shrunk_pixel_box
 from stereo_classic.fusion.contact import AGREEMENT_SIGMAS, GROUND_CLASSES, disparity_sigma, ground_contact
 from stereo_classic.fusion.objects import LocalizedObjects
 from stereo_classic.fusion.params import FusionInputError, FusionParams, as_generator
+from stereo_classic.fusion.range_hint import warn_if_piled
 from stereo_classic.fusion.ransac import sequential_clusters
 
 __all__ = ["NEAREST_PERCENTILE", "localize"]
@@ -64,6 +65,7 @@ def localize(
     params: FusionParams | None = None,
     *,
     rng: Any = None,
+    range_warning: bool = True,
     **overrides: Any,
 ) -> LocalizedObjects:
     """One distance and one 3D position per detected object (RANSAC over the depths in its box).
@@ -83,6 +85,11 @@ def localize(
         The fusion's settings (default ``FusionParams()``); see :class:`FusionParams` for each field.
     rng : None, int or numpy.random.Generator
         Seed; ``None`` means seed 0, so the same input always gives the same output.
+    range_warning : bool
+        Warn (:class:`~stereo_classic.fusion.range_hint.RangeWarning`) when a measured object's box has its
+        disparities piled at the end of the searched range (a ``DisparityMap`` knows its range): the object may be
+        nearer than the range reaches. ``Localizer`` passes False when its frame checks, which mark such objects
+        ``"beyond_range"``, run.
     **overrides
         Fields of :class:`FusionParams` to change, e.g. ``method="median", box_shrink=0.1``.
 
@@ -171,6 +178,8 @@ def localize(
         nearest[i] = float(np.percentile(z, NEAREST_PERCENTILE))
         sigma_m[i] = centroid[2] ** 2 / (pinhole.focal_px * pinhole.baseline_m) * disparity_sigma(depths.d[mask])
 
+    if range_warning:
+        warn_if_piled(disparity_map, xyxy, labels, distance, status, params.box_shrink)
     return LocalizedObjects(
         labels=labels, class_id=class_id, confidence=confidence, xyxy=xyxy.astype(np.float32),
         distance_m=distance, xyz=xyz, inliers=inliers, valid_pixels=valid_pixels, inlier_ratio=ratio,

@@ -37,3 +37,33 @@ def test_model_error_traceback_with_verbose(tmp_path, capsys):
     cv2.imwrite(str(tmp_path / "a.png"), np.zeros((40, 60, 3), np.uint8))
     assert main(["-v", "detect", str(tmp_path / "a.png"), "--model", str(model)]) == 1
     assert "Traceback" in capsys.readouterr().err
+
+
+def test_fetch_of_an_unknown_name_says_how_to_use_a_model_file(capsys):
+    """Issue 34: one `error:` line, exit 2, naming the known models and the two ways to use another one."""
+    assert main(["fetch", "my_detector"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: no official download for model 'my_detector'")
+    assert "--model" in err[0] and "STEREO_CLASSIC_MODELS" in err[0] and "yolox_nano" in err[0]
+
+
+def test_detect_on_a_missing_image_is_an_error_line(tmp_path, capsys):
+    assert main(["detect", str(tmp_path / "nope.png")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and "nope.png" in err[0]
+
+
+def test_detect_classes_with_commas_or_spaces(tmp_path, monkeypatch):
+    from detectors import cli
+
+    seen = []
+
+    class Spy:
+        def __init__(self, *args, classes=None, **kwargs):
+            seen.append(classes)
+            raise ValueError("stop here")
+
+    monkeypatch.setattr("detectors.onnx_detector.OnnxDetector", Spy)
+    for classes in (["car,person"], ["car", "person"]):
+        assert cli.main(["detect", str(tmp_path / "x.png"), "--classes", *classes]) == 2
+    assert seen == [["car", "person"], ["car", "person"]]

@@ -187,3 +187,18 @@ def test_ctrl_c_cancels_the_cluster_run_and_leaves_no_partial_frame(tmp_path, cl
         again = run_source(PairSource(files), FrameWriter(out, sequence=True, resume=True), params_for=_params,
                            rig=rig, executor=executor)
     assert (again.frames, again.skipped) == (len(files) - 3, 3)
+
+
+def test_importing_distributed_keeps_the_level_the_command_line_set():
+    """Issue 34: `run` sets the `distributed` logger to WARNING (unless -v); importing distributed sets its own INFO
+    (about 50 lines a run), so the import restores the caller's level. A fresh process: here it is imported."""
+    import subprocess
+    import sys
+
+    code = ("import logging; logging.getLogger('distributed').setLevel(logging.WARNING); "
+            "from stereo_classic.cluster import import_distributed; import_distributed(); "
+            "print(logging.getLogger('distributed').level)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                          cwd=Path(__file__).resolve().parents[2])
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == str(logging.WARNING)

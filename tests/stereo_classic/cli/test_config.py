@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 
@@ -82,3 +84,30 @@ def test_the_config_file_input_is_the_run_input(tmp_path, capsys):
                    f'calib = "{tmp_path / "rig.yaml"}"\n')
     assert main(["run", "--config", str(cfg), "-o", str(tmp_path / "o")]) == 1
     assert "nope_L.png" in capsys.readouterr().err  # it tried the file's input, not the demo
+
+
+@pytest.mark.parametrize(("text", "match"), [
+    ("[matcher]\nnum_disparities = -5\n", r"`num_disparities` must be a positive integer"),
+    ("[matcher]\ncensus_window = [9, 8]\n", r"`census_window` must be \(width, height\) of odd"),
+])
+def test_a_matcher_value_out_of_range_names_the_file(tmp_path, capsys, text, match):
+    """Issue 34: SGMParams' own checks run on the file's table, so the error line names the file (exit 2)."""
+    from stereo_classic.cli import main
+    from stereo_classic.cli.config import ConfigError, load_config
+
+    path = tmp_path / "c.toml"
+    path.write_text(text)
+    with pytest.raises(ConfigError, match=rf"^{re.escape(str(path))}: \[matcher\] {match}"):
+        load_config(path)
+    assert main(["run", "--config", str(path), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"error: {path}: [matcher]")
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("classes", [["car,person"], ["car", "person"], ["car,", "person"]])
+def test_classes_with_commas_or_spaces_read_alike(capsys, classes):
+    from stereo_classic.cli import main
+
+    assert main(["run", "--classes", *classes, "--dump-config"]) == 0
+    assert 'classes = ["car", "person"]' in capsys.readouterr().out

@@ -66,3 +66,16 @@ def test_flags_are_the_field_names_and_fields_without_help_are_not_flags():
 def test_option_names_puts_the_flag_into_messages():
     assert option_names("`box_shrink` must be in [0, 1)", FusionParams) == "--box-shrink must be in [0, 1)"
     assert option_names("`subpixel` and `p1`", SGMParams) == "--no-subpixel and --p1"
+
+
+def test_help_shows_values_as_the_flags_take_them(capsys):
+    """Issue 34: the census window as 9x7 (as the flag, the config and the docs write it), a range as two words,
+    and --save's choices with ply (which it accepts)."""
+    from stereo_classic.cli import main
+
+    assert main(["disparity", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "(default: 9x7)" in text
+    assert main(["run", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "metres (default: 0.3 80.0)" in text and "ply" in text.split("--save LIST")[-1].split("--ply")[0]
