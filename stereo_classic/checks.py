@@ -59,6 +59,7 @@ import numpy as np
 
 from stereo_classic.fusion import FusionParams, LocalizedObjects, localize
 from stereo_classic.fusion.boxes import shrunk_pixel_box
+from stereo_classic.fusion.range_hint import PILE_SHARE, range_saturation
 from stereo_classic.matching import DisparityMap, SGMParams, StereoMatcher
 
 __all__ = [
@@ -78,7 +79,7 @@ __all__ = [
 #: Fraction of the valid pixels within 1 px of the end of the range above which the frame is warned about.
 SATURATION_WARN = 0.005
 #: Fraction of a box's known pixels within 1 px of the end of the range that makes it suspect.
-BOX_SATURATION = 0.05
+BOX_SATURATION = PILE_SHARE  # the same share as a bare localize() call warns at (fusion.range_hint)
 #: A box with fewer known pixels than this fraction is suspect too: an object beyond the range can also give
 #: mostly inconsistent matches instead of a pile at the end (a fine texture: its pixels match the wall behind).
 BOX_SPARSE = 0.6
@@ -112,20 +113,6 @@ class FrameWarning(NamedTuple):
 
     def to_json(self) -> dict[str, str]:
         return {"code": self.code, "message": self.message}
-
-
-def range_saturation(disparity: np.ndarray, max_disparity: float, margin: float = 1.0) -> float:
-    """Fraction (0..1) of the known pixels of ``disparity`` within ``margin`` px of ``max_disparity``.
-
-    >>> range_saturation(np.array([[1.0, 63.0, 62.5, np.nan]]), 63)
-    0.6666666666666666
-    """
-    known = np.isfinite(disparity)
-    n = int(np.count_nonzero(known))
-    if n == 0:
-        return 0.0
-    with np.errstate(invalid="ignore"):
-        return int(np.count_nonzero(disparity >= max_disparity - margin)) / n
 
 
 def _half(image: np.ndarray) -> np.ndarray:

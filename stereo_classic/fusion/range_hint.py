@@ -15,11 +15,25 @@ import numpy as np
 
 from stereo_classic.fusion.boxes import shrunk_pixel_box
 
-__all__ = ["PILE_SHARE", "RangeWarning", "piled_boxes", "warn_if_piled"]
+__all__ = ["PILE_SHARE", "RangeWarning", "piled_boxes", "range_saturation", "warn_if_piled"]
 
 #: A box is suspect when this fraction of its known (measured) pixels lies within 1 px of the end of the range:
-#: the same share as ``stereo_classic.checks.BOX_SATURATION`` (a test keeps the two equal).
+#: ``stereo_classic.checks.BOX_SATURATION`` is this share (the frame checks mark such objects beyond_range).
 PILE_SHARE = 0.05
+
+
+def range_saturation(disparity: np.ndarray, max_disparity: float, margin: float = 1.0) -> float:
+    """Fraction (0..1) of the known pixels of ``disparity`` within ``margin`` px of ``max_disparity``.
+
+    >>> range_saturation(np.array([[1.0, 63.0, 62.5, np.nan]]), 63)
+    0.6666666666666666
+    """
+    known = np.isfinite(disparity)
+    n = int(np.count_nonzero(known))
+    if n == 0:
+        return 0.0
+    with np.errstate(invalid="ignore"):
+        return int(np.count_nonzero(disparity >= max_disparity - margin)) / n
 
 
 class RangeWarning(UserWarning):
@@ -42,11 +56,7 @@ def piled_boxes(disparity_map: Any, xyxy: np.ndarray, shrink: float) -> np.ndarr
     for i, box in enumerate(np.asarray(xyxy, dtype=np.float64)):
         u0, v0, u1, v1 = shrunk_pixel_box(box, shrink, w, h)
         if u1 > u0 and v1 > v0:
-            crop = disp[v0:v1, u0:u1]
-            known = np.isfinite(crop)
-            n = int(known.sum())
-            with np.errstate(invalid="ignore"):
-                out[i] = n > 0 and int(np.count_nonzero(crop >= float(top) - 1.0)) / n >= PILE_SHARE
+            out[i] = range_saturation(disp[v0:v1, u0:u1], float(top)) >= PILE_SHARE
     return out
 
 
