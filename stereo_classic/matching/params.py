@@ -31,6 +31,7 @@ __all__ = [
     "LEARNED_COSTS",
     "FEATURE_SIMILARITIES",
     "LR_MODES",
+    "OUTSIDE_MATCHES",
     "MAX_BLOCK_SIZE",
     "MAX_NUM_DISPARITIES",
     "MAX_PENALTY",
@@ -54,6 +55,8 @@ FEATURE_SIMILARITIES = ("dot", "l1")
 _FEATURE_INPUTS = ("standardize", "unit", "raw")
 #: ONNX Runtime execution providers (``learned.PROVIDERS``).
 _PROVIDERS = ("cpu", "cuda", "auto")
+#: Costs of a match outside the right image (see SGMParams.outside_match).
+OUTSIDE_MATCHES = ("neutral", "forbidden")
 #: Left-right check variants (see SGMParams.lr_mode).
 LR_MODES = ("full", "opencv")
 #: Largest accepted (odd) SAD window side.
@@ -264,6 +267,13 @@ class SGMParams:
         every pixel with at least one candidate. Default 0.5 (measured on the shared scenes, dense bad-2,
         Middlebury-style / driving, with the same penalties everywhere: keep all 6.8 / 18.6, 0.5 6.5 / 15.9, 1.0
         8.2 / 16.8; with the weak-texture penalties: keep all 7.9 / 11.8, 0.5 6.7 / 8.0).
+    outside_match : {"neutral", "forbidden"}
+        The cost of a disparity whose match falls outside the right image (pixels near the left edge). "neutral"
+        (default): what two unrelated census windows cost on average, half the census bits (31 for 9 x 7; a learned
+        cost: half an unrelated pair's), so that it is neither preferred nor forbidden: a real match beats it, and the
+        paths that cross the left band carry their neighbours' disparity on instead of being pushed to the few
+        disparities that fit; a winner there is unknown. "forbidden": above anything a path can add up, never wins
+        (the rule before issue 35; always for cost "sad"). See docs/matching.md, "The left border".
     border_check : bool
         Keep the left-border pixels that ``border_reach`` would set unknown where the right image's own match
         confirms them: the strip is matched again mirrored (the right image as the left one, where those places have
@@ -338,6 +348,9 @@ class SGMParams:
     border_reach: float = dataclasses.field(default=0.5, metadata={
         "help": "border pixels that can search less than this fraction of the range are unknown (0 = keep all)",
         "metavar": "FRACTION"})
+    outside_match: str = dataclasses.field(default="neutral", metadata={
+        "help": "cost of a match outside the right image: neutral (half an unrelated pair's) or forbidden",
+        "choices": OUTSIDE_MATCHES})
     border_check: bool = dataclasses.field(default=False, metadata={
         "help": "keep the left-border pixels that the right image's own match of the strip confirms (border_reach "
                 "sets the others unknown)"})
@@ -413,6 +426,9 @@ class SGMParams:
             if not _is_real(self.lr_check) or not 0 <= self.lr_check < MAX_NUM_DISPARITIES:
                 fail("lr_check", "None (off) or a non-negative number of pixels", self.lr_check)
             normalise("lr_check", float(self.lr_check))
+        if not isinstance(self.outside_match, str) or self.outside_match.lower() not in OUTSIDE_MATCHES:
+            fail("outside_match", f"one of {', '.join(map(repr, OUTSIDE_MATCHES))}", self.outside_match)
+        normalise("outside_match", self.outside_match.lower())
         if not isinstance(self.lr_mode, str) or self.lr_mode.lower() not in LR_MODES:
             fail("lr_mode", f"one of {', '.join(map(repr, LR_MODES))}", self.lr_mode)
         normalise("lr_mode", self.lr_mode.lower())
@@ -506,6 +522,14 @@ class SGMParams:
     def effective_p1_vertical(self) -> int:
         """P1 of the paths that cross rows: ``p1_vertical``, or ``effective_p1`` when it is None."""
         return self.p1_vertical if self.p1_vertical is not None else self.effective_p1
+
+    @property
+    def outside_cost(self) -> int | None:
+        """The census costs' cost of a match outside the right image (``outside_match``, in cost units), or None:
+        forbidden (``"forbidden"``, and always for "sad"; a learned cost has its own, ``learned``)."""
+        if self.outside_match != "neutral" or self.cost not in ("census", "census+grad"):
+            return None
+        return (self.census_window[0] * self.census_window[1] - 1) // 2
 
     @property
     def effective_threads(self) -> int:

@@ -78,12 +78,13 @@ def feature_cost_reference(left_features, right_features, *, similarity="dot", m
 
 
 def cost_volume_reference(left, right, *, cost="census", min_disparity=0, num_disparities=16, block_size=5,
-                          census_window=(9, 7), p2=120) -> np.ndarray:
-    """(H, W, D) int64 cost, invalid disparities (match outside the right image) = cmax + 2*p2s + 1."""
+                          census_window=(9, 7), p2=120, outside_cost=None) -> np.ndarray:
+    """(H, W, D) int64 cost, invalid disparities (match outside the right image) = cmax + 2*p2s + 1, or
+    ``min(outside_cost >> shift, cmax)`` when given."""
     H, W = left.shape
     D = num_disparities
     shift, cmax = cost_scale(cost, block_size, census_window, p2)
-    cinv = cmax + 2 * (p2 >> shift) + 1
+    cinv = cmax + 2 * (p2 >> shift) + 1 if outside_cost is None else min(int(outside_cost) >> shift, cmax)
     out = np.full((H, W, D), cinv, np.int64)
     if cost == "census":
         cl = census_reference(left, census_window)
@@ -97,7 +98,8 @@ def cost_volume_reference(left, right, *, cost="census", min_disparity=0, num_di
         return out
     if cost == "census+grad":  # census + the window mean of |sobel_L - sobel_R| (no intensity term)
         census = cost_volume_reference(left, right, cost="census", min_disparity=min_disparity,
-                                       num_disparities=num_disparities, census_window=census_window, p2=p2)
+                                       num_disparities=num_disparities, census_window=census_window, p2=p2,
+                                       outside_cost=outside_cost)
         sums = _window_sums(left, right, min_disparity, D, block_size, intensity=False)
         mul = round(1024 / (block_size * block_size))
         return np.where(sums >= 0, census + ((sums * mul) >> 10), out)
@@ -197,7 +199,7 @@ def select_reference(S: np.ndarray, min_disparity: int, *, uniqueness=0.0, lr_ch
     """(disparity, disparity_right) float32 from a complete sum volume, pixel by pixel.
 
     Valid disparities of left pixel x: indices k with 0 <= x - min_disparity - k < W. Winner = first
-    index of the minimum; uniqueness rejects when some valid k with |k - best| >= 2 has
+    index of the minimum over all k (unknown when it is not a valid one: a neutral outside cost won); uniqueness rejects when some valid k with |k - best| >= 2 has
     S * (1 - uniqueness) < S_best; subpixel: parabola through best - 1, best, best + 1 when both are
     valid and the curvature is positive.
 
@@ -227,9 +229,11 @@ def select_reference(S: np.ndarray, min_disparity: int, *, uniqueness=0.0, lr_ch
             valid = [k for k in range(D) if 0 <= x - dmin - k < W]
             if not valid:
                 continue
-            vals = [int(S[y, x, k]) for k in valid]
-            m = min(vals)
-            b = valid[vals.index(m)]
+            every = [int(S[y, x, k]) for k in range(D)]
+            m = min(every)
+            b = every.index(m)
+            if b not in valid:  # the match is outside the right image: not a measurement
+                continue
             if uniqueness > 0:
                 far = [int(S[y, x, k]) for k in valid if abs(k - b) >= 2]
                 if far and float(min(far)) * (1.0 - uniqueness) < float(m):

@@ -35,7 +35,8 @@ class DisparityMap:
     validity : dict[str, int | None]
         Pixel counts: "pixels" (H * W), "valid" (known in ``filled_disparity``: measured + filled), "unknown_matcher"
         (NaN out of the matcher) = "no_candidate" (columns where no disparity of the range lands inside
-        the right image) + "failed_lr" + "failed_uniqueness" (exact counts from the kernels), "short_range"
+        the right image) + "failed_lr" + "failed_uniqueness" + "outside" (won by a match outside the right image at
+        its neutral cost, ``SGMParams.outside_match``) (exact counts from the kernels), "short_range"
         (border pixels set unknown because they could search less than ``border_reach`` of the range),
         "speckle_removed", "filled" (by ``fill_holes``), "border" (pixels in the image bands where the full disparity
         range does not fit, matched with the range that does) and "border_valid".

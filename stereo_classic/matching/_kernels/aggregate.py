@@ -185,8 +185,8 @@ class ThreadBuffers(NamedTuple):
         Right view: best sum and its disparity index per right pixel.
     best : (W,) int64
         Winning disparity index per pixel of the row (-1: none).
-    counts : (2,) int64
-        Pixels rejected by uniqueness and by the LR check.
+    counts : (3,) int64
+        Pixels rejected by uniqueness, by the LR check, and won by a match outside the right image.
     claim_cost, claim_k : (W,) int16
         OpenCV-style LR check: cost and disparity index of each right pixel's claim.
     """

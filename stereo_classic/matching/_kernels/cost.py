@@ -153,6 +153,8 @@ class CostSettings(NamedTuple):
     feature_base, feature_mul : float
         ``FEATURES``: the cost is ``clip(feature_base + acc * feature_mul, 0, cmax)`` truncated, ``acc`` the
         channel sum of the int8 products (dot) or absolute differences (L1), exact in float32.
+    outside_cost : int
+        Cost of a match outside the right image when >= 0 (neutral: such a winner is unknown); -1: ``invalid_cost``.
     """
 
     kind: int
@@ -166,6 +168,7 @@ class CostSettings(NamedTuple):
     feature_l1: int = 0
     feature_base: float = 0.0
     feature_mul: float = 0.0
+    outside_cost: int = -1
 
 
 def census_bits(census_window: tuple[int, int]) -> int:
@@ -415,8 +418,8 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     ``images``: a ``CostImages`` with census codes as (H, W, 4) uint16 quarters; ``cost``: a ``CostSettings``;
     ``bufs``: a ``RowCostBuffers``. The SAD / gradient column sums are built from scratch when ``first``, else
     moved on from row ``y - step`` (``step`` +1 or -1: rows must then come in that order). Disparities whose
-    match falls outside the right image get ``invalid_cost``, and so do the padding indices ``k >=
-    cost.num_disparities`` (``crow`` holds ``len(crow) // W`` per pixel).
+    match falls outside the right image get ``outside_cost`` (``invalid_cost`` when it is -1), the padding indices
+    ``k >= cost.num_disparities`` ``invalid_cost`` (``crow`` holds ``len(crow) // W`` per pixel).
     """
     if cost.kind == FEATURES:  # learned features: a cost of their own (``feature_row_cost``)
         feature_row_cost(images.left_features, images.right_features, cost, y, bufs.frev, bufs.facc, bufs.floor,
@@ -440,6 +443,7 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     W = images.left.shape[1]
     D = crow.shape[0] // W
     cinv = np.int16(cost.invalid_cost)
+    cout = np.int16(cost.outside_cost) if cost.outside_cost >= 0 else cinv
     grad = kind != CENSUS  # SAD, or the gradient term of census+grad (no intensity term)
     if grad:
         intensity = kind == SAD
@@ -519,7 +523,7 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
             cb = x * D
             for k in range(nd):
                 if k < k_lo or k > k_hi:
-                    crow[_U(cb + k)] = cinv
+                    crow[_U(cb + k)] = cout
 
 
 @njit(cache=True, nogil=True)

@@ -104,8 +104,8 @@ class RowPassBuffers(NamedTuple):
         Right view: best sum and its disparity index per right pixel.
     best : (W,) int64
         Winning disparity index per pixel of the row (-1: none).
-    counts : (2,) int64
-        Pixels rejected by uniqueness and by the LR check.
+    counts : (3,) int64
+        Pixels rejected by uniqueness, by the LR check, and won by a match outside the right image.
     claim_cost, claim_k : (W,) int16
         OpenCV-style LR check: cost and disparity index of each right pixel's claim.
     """
@@ -142,7 +142,7 @@ def row_pass_buffers(H: int, W: int, D: int, warm_rows: int = 0) -> RowPassBuffe
         path_r=ph.reshape(-1).copy(), min_r=np.zeros(2, np.int16),
         row_min=np.empty(W, np.int16), k_index=np.arange(D, dtype=np.int16),
         right_sums=np.empty(W + D - 1, np.int16), right_k=np.empty(W + D - 1, np.int16),
-        best=np.empty(W, np.int64), counts=np.zeros(2, np.int64),
+        best=np.empty(W, np.int64), counts=np.zeros(3, np.int64),
         claim_cost=np.empty(W, np.int16), claim_k=np.empty(W, np.int16))
 
 

@@ -31,8 +31,9 @@ def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, rig
     right view's winners ``right_k`` (``right_sums`` / ``right_k`` per right pixel q = W - 1 - dmin - x_right:
     the lowest sum landing there and its disparity index, ties to the smallest; made by ``right_view_row``).
 
-    Winner-takes-all (first index of the minimum; disparities whose match is outside the right image always
-    sum higher than the others), uniqueness, parabola subpixel, then the left-right check of the row ("full":
+    Winner-takes-all (first index of the minimum; a winner whose match is outside the right image, which a
+    neutral ``CostSettings.outside_cost`` allows, is unknown and counted in ``counts[2]``),
+    uniqueness, parabola subpixel, then the left-right check of the row ("full":
     against the right view's winner; "opencv": against the claims, ties to the largest x), and the right-view
     disparity.
     """
@@ -73,6 +74,11 @@ def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, rig
             bk16 = min16(bk16, pick16(eq16(srow[_U(db + k)], ns), kidx[k], big))
         bk = np.int64(bk16)
         best[x] = bk
+        if bk < k_lo or bk > k_hi:  # the match is outside the right image (its neutral cost won): not a measurement
+            disp[y, x] = nan
+            best[x] = -1
+            counts[2] += 1
+            continue
         if uniq > 0.0:
             m2 = big
             for k in range(k_lo, bk - 1):

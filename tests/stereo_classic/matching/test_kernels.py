@@ -228,6 +228,42 @@ def test_cross_row_p1_matches_reference(cost, paths, adaptive, p1_cross, cross_t
     assert not np.array_equal(got, same)  # the rows-crossing P1 changed the sums
 
 
+@pytest.mark.parametrize("cost, paths", [("census+grad", 3), ("census", 8), ("census+grad", 4)])
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("dmin", [0, -2])
+def test_neutral_outside_cost_matches_reference(cost, paths, threads, dmin):
+    """A match outside the right image at a neutral cost (``outside_cost``): the sums of both kernels against the
+    reference given that cost, and the disparity: a winner outside the right image is unknown."""
+    left, right = _pair(45, h=10, w=30, shift=3)
+    kw = dict(cost=cost, min_disparity=dmin, num_disparities=12, block_size=5, census_window=(9, 7))
+    C = ref.cost_volume_reference(left, right, p2=112, outside_cost=31, **kw)
+    mask = core.PATH_MASKS[paths]
+    want = ref.sum_reference(C, mask, 28, 112)
+    got = core.sum_volume(left, right, path_mask=mask, threads=threads, p1=28, p2=112, outside_cost=31, **kw)
+    np.testing.assert_array_equal(got, want)
+    forbidden = core.sum_volume(left, right, path_mask=mask, threads=threads, p1=28, p2=112, **kw)
+    assert not np.array_equal(got, forbidden)
+    d, _, _ = core.sgm_match(left, right, paths=paths, threads=threads, p1=28, p2=112, outside_cost=31, **kw)
+    d_ref, _ = ref.select_reference(want, dmin, lr_check=1.0)
+    np.testing.assert_array_equal(np.isnan(d), np.isnan(d_ref))
+    np.testing.assert_allclose(d[np.isfinite(d)], d_ref[np.isfinite(d_ref)], atol=1e-5)
+
+
+def test_a_winner_outside_the_right_image_is_unknown():
+    """A left band whose own candidates all cost the most (their match is noise) and a neutral outside cost: the
+    winners there lie outside the right image and are unknown, never a disparity that merely fits."""
+    rng = np.random.default_rng(46)
+    right = rng.integers(0, 256, (12, 40), dtype=np.uint8)
+    left = np.roll(right, 9, axis=1)
+    left[:, :9] = rng.integers(0, 256, (12, 9), dtype=np.uint8)  # seen by the left camera only (true d = 9)
+    kw = dict(cost="census+grad", num_disparities=16, p1=28, p2=112, paths=3, lr_check=None, threads=1)
+    neutral, _, _ = core.sgm_match(np.ascontiguousarray(left), right, outside_cost=31, **kw)
+    forbidden, _, _ = core.sgm_match(np.ascontiguousarray(left), right, **kw)
+    assert np.isfinite(forbidden[:, :6]).all()  # forced to a disparity that fits
+    assert np.isnan(neutral[:, :6]).mean() > 0.8
+    np.testing.assert_array_equal(neutral[:, 24:], forbidden[:, 24:])  # the paths settle away from the band
+
+
 def test_cross_row_p1_is_bounded_by_p2():
     left, right = _pair(44)
     with pytest.raises(ValueError, match="p1_cross"):

@@ -58,7 +58,7 @@ class TestParams:
         ("num_disparities", 10**6),
         ("block_size", 4), ("block_size", 0), ("block_size", 23), ("block_size", 5.0),
         ("p1", -1), ("p1", 2.5), ("p2", 10**6), ("p1_vertical", -1), ("p1_vertical", 3.5), ("p1_vertical", 112),
-        ("p1_vertical_texture", 0),
+        ("p1_vertical_texture", 0), ("outside_match", "free"), ("outside_match", None),
         ("cost", "ssd"), ("cost", None),
         ("census_window", (9, 9)), ("census_window", (8, 7)), ("census_window", 9), ("census_window", (9, 7, 1)),
         ("adaptive_p2", 1), ("subpixel", "yes"), ("fill_holes", None),
@@ -120,7 +120,8 @@ class TestParams:
 # --------------------------------------------------------------------------------------------------
 _FLAG_FIELDS = {"min_disparity", "num_disparities", "cost", "block_size", "census_window", "p1", "p2", "uniqueness",
                 "lr_check", "lr_mode", "speckle_size", "speckle_range", "paths", "adaptive_p2", "subpixel",
-                "fill_holes", "border_reach", "border_check", "weak_texture_gain", "p1_vertical", "p1_vertical_texture",
+                "fill_holes", "border_reach", "border_check", "outside_match", "weak_texture_gain", "p1_vertical",
+                "p1_vertical_texture",
                 "feature_model", "feature_input", "feature_similarity", "onnx_provider"}
 
 
