@@ -47,7 +47,8 @@ from stereo_classic.matching._kernels.cost import (
     cost_volume_kernel,
     largest_p2,
     sobel_rows,
-    weak_texture_scale,
+    texture_table,
+    weak_texture_rows,
 )
 from stereo_classic.matching._kernels.features import FEATURES, check_features, with_features
 from stereo_classic.matching._kernels.rowpass import (
@@ -309,7 +310,9 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
                   features=None) -> CostImages:
     """The cost's input images of both views: census quarters and / or the x-Sobel channel (with the image itself
     for SAD), made in stripes of rows of both images on ``threads`` workers, into arrays of ``workspace``; and the
-    left image's per-pixel penalty factors (``weak_texture_scale``). ``cost="features"``: ``features`` is the pair
+    left image's per-pixel penalty factors (``weak_texture_scale``, by the left view's stripes: ``weak_texture_rows``;
+    before, OpenCV's Sobel and box filter on the whole image, one task beside the stripes whose own threads competed
+    with the workers). ``cost="features"``: ``features`` is the pair
     (left, right) of (H, C, W) int8 arrays the row cost reads (``learned.FeatureModel.features``)."""
     H, W = left.shape
     w, h = census_window
@@ -333,20 +336,24 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
             img.astype(np.int16) if cost == "sad" else _placeholder(np.int16, 2)))
 
     scale = scratch("penalty_scale", (H, W), np.uint8)
+    table = texture_table(weak_texture_gain)  # None: no weak-texture factors (16 everywhere)
+    if table is None:
+        scale[...] = 16
+    else:  # made by the left view's stripes, from the image padded by one pixel (the Sobel channel's)
+        padded_t = views[0][2] if sobel else padded("left", left, 1, 1)
 
     def rows(t: int, task) -> None:
-        side, band = task
-        if band is None:  # the penalty factors: one task of their own, taken first, beside the stripes
-            weak_texture_scale(left, weak_texture_gain, scale, scratch=scratch)
-            return
-        y0, y1 = band
+        side, (y0, y1) = task
         padded_c, code, padded_s, sob, _ = views[side]
         if census:
             census_quarters_rows(padded_c, w // 2, h // 2, y0, y1, code)
         if sobel:
             sobel_rows(padded_s, y0, y1, sob)
+        if side == 0 and table is not None:
+            weak_texture_rows(padded_t, y0, y1, table, scale)
 
-    tasks = [(0, None)] + [(side, band) for side in (0, 1) for band in stripes(H) if census or sobel]
+    tasks = [(side, band) for side in (0, 1) for band in stripes(H)
+             if census or sobel or (side == 0 and table is not None)]
     run_tasks(tasks, workers_for(threads, len(tasks)), rows)
     (_, lcode, _, lsob, lint), (_, rcode, _, rsob, rint) = views
     feats = check_features(features, H, W) if cost == "features" else ()  # else the placeholders

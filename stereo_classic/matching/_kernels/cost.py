@@ -67,6 +67,8 @@ __all__ = [
     "max_penalty_scale",
     "pixel_penalties",
     "weak_texture_scale",
+    "weak_texture_rows",
+    "texture_table",
 ]
 
 SOBEL_CAP = 31
@@ -565,20 +567,78 @@ def _scale_table(top: int) -> np.ndarray:
 _SCALE_TABLES: dict[int, np.ndarray] = {}
 
 
+def texture_table(gain: float) -> np.ndarray | None:
+    """``weak_texture_scale``'s table for ``gain``: the factor (uint8 sixteenths) of each window sum of ``|Sobel_x|``
+    from 0 to TEXTURE_REFERENCE * TEXTURE_WINDOW^2 (every larger sum: 16); None when ``gain`` <= 1 (16 everywhere)."""
+    top = max_penalty_scale(gain)
+    if top <= 16:
+        return None
+    table = _SCALE_TABLES.get(top)
+    if table is None:
+        table = _SCALE_TABLES[top] = _scale_table(top)
+    return table
+
+
+@njit(cache=True, nogil=True)
+def weak_texture_rows(padded, y0, y1, table, out):  # pragma: no cover - numba
+    """``weak_texture_scale`` for the rows [y0, y1): ``out[y, x] = table[min(s, len(table) - 1)]``, ``s`` the
+    TEXTURE_WINDOW x TEXTURE_WINDOW window sum (borders replicated) of ``|Sobel_x|`` of the image ``padded`` by one
+    replicated pixel (the unclipped ``sobel_rows``). In 16-bit lanes (a sum is at most 25 * 1020), the |Sobel| rows
+    in a ring of TEXTURE_WINDOW rows made once each, the window's column sums moved along the row."""
+    H = padded.shape[0] - 2
+    W = padded.shape[1] - 2
+    r = TEXTURE_WINDOW // 2
+    n = 2 * r + 1
+    top = np.int16(table.shape[0] - 1)
+    ring = np.empty((n, W), np.int16)  # |Sobel_x| of row yy in ring[yy % n]
+    cols = np.empty(W + 2 * r, np.int16)  # column sums of the window's rows, borders replicated
+    made = max(0, y0 - r) - 1  # the last row made
+    for y in range(y0, y1):
+        last = min(H - 1, y + r)
+        while made < last:
+            made += 1
+            a, b, c = padded[made], padded[made + 1], padded[made + 2]
+            g = ring[made % n]
+            for x in range(W):
+                gx = ((np.int16(a[x + 2]) - np.int16(a[x])) + np.int16(2) * (np.int16(b[x + 2]) - np.int16(b[x]))
+                      + (np.int16(c[x + 2]) - np.int16(c[x])))
+                g[x] = gx if gx >= 0 else -gx
+        for x in range(W):
+            cols[x + r] = 0
+        for i in range(-r, r + 1):
+            g = ring[min(max(y + i, 0), H - 1) % n]
+            for x in range(W):
+                cols[x + r] += g[x]
+        for j in range(r):
+            cols[j] = cols[r]
+            cols[W + r + j] = cols[W + r - 1]
+        o = out[y]
+        for x in range(W):
+            s = np.int16(0)
+            for j in range(n):
+                s += cols[x + j]
+            o[x] = table[min(s, top)]
+
+
 def weak_texture_scale(left: np.ndarray, gain: float, out: np.ndarray | None = None, *, scratch=None) -> np.ndarray:
     """(H, W) uint8 penalty factors in sixteenths: ``clip(16 * TEXTURE_REFERENCE / t, 16, max_penalty_scale(gain))``
     rounded half up, ``t`` the TEXTURE_WINDOW x TEXTURE_WINDOW window mean of ``|Sobel_x(left)|`` (borders
     replicated), in integer arithmetic through a table (the same numbers on every machine and thread count); all 16
     when ``gain`` <= 1. ``scratch(name, shape, dtype)`` gives the temporaries (a workspace's: no fresh arrays per
     call), default new arrays."""
-    import cv2
-
     if out is None:
         out = np.empty(left.shape, np.uint8)
-    top = max_penalty_scale(gain)
-    if top <= 16:
+    table = texture_table(gain)
+    if table is None:
         out[...] = 16
         return out
+    import cv2
+
+    H, W = left.shape
+    padded = cv2.copyMakeBorder(left, 1, 1, 1, 1, cv2.BORDER_REPLICATE,
+                                dst=None if scratch is None else scratch("texture_padded", (H + 2, W + 2), np.uint8))
+    weak_texture_rows(padded, 0, H, table, out)
+    return out
     table = _SCALE_TABLES.get(top)
     if table is None:
         table = _SCALE_TABLES[top] = _scale_table(top)
