@@ -175,7 +175,7 @@ def apply_and_fill_stripe(disp, max_size, y0, y1, labels, parent, sizes, out, ho
     then the 3x3 median (borders replicated) of that row-filled map; where a row without any known pixel is
     among the 3 rows, the row fill itself; in a row without any known pixel, NaN. ``holes`` = the pixels filled.
 
-    ``rows`` (3, W) float32, ``kept_rows`` (3, W) uint8 and ``columns`` (3, W) float32 are this worker's
+    ``rows`` (3, W) float32, ``kept_rows`` (3, W) uint8 and ``columns`` (3, W + 2) float32 are this worker's
     scratch: the row-filled rows y - 1, y, y + 1 in a ring (row r in slot r % 3; a stripe makes its border rows'
     neighbours itself, reading only the labels), and the sorted columns of the three. The median of 3 x 3 values
     is the median of (the largest of the columns' smallest, the median of their medians, the smallest of their
@@ -212,13 +212,18 @@ def apply_and_fill_stripe(disp, max_size, y0, y1, labels, parent, sizes, out, ho
         a, c = rows[sm], rows[sp]
         for x in range(W):
             u, v, w = a[x], b[x], c[x]
-            lo[x] = min(min(u, v), w)
-            hi[x] = max(max(u, v), w)
-            mi[x] = _med3(u, v, w)
-        for x in range(W):
-            xl = max(x - 1, 0)
-            xr = min(x + 1, W - 1)
-            m = _med3(max(max(lo[xl], lo[x]), lo[xr]), _med3(mi[xl], mi[x], mi[xr]), min(min(hi[xl], hi[x]), hi[xr]))
-            out[y, x] = disp[y, x] if kept[x] else m
-            holes[y, x] = not kept[x]
+            lo[x + 1] = min(min(u, v), w)
+            hi[x + 1] = max(max(u, v), w)
+            mi[x + 1] = _med3(u, v, w)
+        lo[0], mi[0], hi[0] = lo[1], mi[1], hi[1]  # borders replicated: column -1 is column 0, column W is W - 1
+        lo[W + 1], mi[W + 1], hi[W + 1] = lo[W], mi[W], hi[W]
+        drow = disp[y]
+        orow = out[y]
+        hrow = holes[y]
+        for x in range(W):  # column x of the image is x + 1 of the sorted thirds: no clamped index, vector loads
+            m = _med3(max(max(lo[x], lo[x + 1]), lo[x + 2]), _med3(mi[x], mi[x + 1], mi[x + 2]),
+                      min(min(hi[x], hi[x + 1]), hi[x + 2]))
+            k = kept[x] != 0
+            orow[x] = drow[x] if k else m
+            hrow[x] = not k
     return n_kept, n_filled
