@@ -47,8 +47,6 @@ from stereo_classic.matching._kernels.cost import (
     cost_volume_kernel,
     largest_p2,
     sobel_rows,
-    texture_table,
-    weak_texture_rows,
 )
 from stereo_classic.matching._kernels.features import FEATURES, check_features, with_features
 from stereo_classic.matching._kernels.rowpass import (
@@ -58,6 +56,7 @@ from stereo_classic.matching._kernels.rowpass import (
     row_pass_bytes,
     three_path_stripe,
 )
+from stereo_classic.matching._kernels.texture import texture_table, weak_texture_rows
 from stereo_classic.matching._kernels.workers import run_chained, run_stripes, run_tasks
 
 __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume", "check_penalties", "cost_scale",
@@ -310,10 +309,8 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
                   features=None) -> CostImages:
     """The cost's input images of both views: census quarters and / or the x-Sobel channel (with the image itself
     for SAD), made in stripes of rows of both images on ``threads`` workers, into arrays of ``workspace``; and the
-    left image's per-pixel penalty factors (``weak_texture_scale``, by the left view's stripes: ``weak_texture_rows``;
-    before, OpenCV's Sobel and box filter on the whole image, one task beside the stripes whose own threads competed
-    with the workers). ``cost="features"``: ``features`` is the pair
-    (left, right) of (H, C, W) int8 arrays the row cost reads (``learned.FeatureModel.features``)."""
+    left image's penalty factors (``weak_texture_scale``, by the left view's stripes). ``cost="features"``: ``features``
+    is the pair (left, right) of (H, C, W) int8 arrays the row cost reads (``learned.FeatureModel.features``)."""
     H, W = left.shape
     w, h = census_window
     census, sobel = cost in ("census", "census+grad"), cost in ("sad", "census+grad")
@@ -330,17 +327,13 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
         views.append((
             padded(side, img, h // 2, w // 2) if census else None,
             scratch(side + "_code", (H, W, 4), np.uint16) if census else _placeholder(np.uint16, 3),
-            padded(side, img, 1, 1) if sobel else None,
+            padded(side, img, 1, 1) if sobel or side == "left" else None,  # the left one for the penalty factors too
             scratch(side + "_sobel", (H, W), np.int16) if sobel else _placeholder(np.int16, 2),
             # no intensity term but for SAD: the kernels read no intensity image then
             img.astype(np.int16) if cost == "sad" else _placeholder(np.int16, 2)))
 
     scale = scratch("penalty_scale", (H, W), np.uint8)
-    table = texture_table(weak_texture_gain)  # None: no weak-texture factors (16 everywhere)
-    if table is None:
-        scale[...] = 16
-    else:  # made by the left view's stripes, from the image padded by one pixel (the Sobel channel's)
-        padded_t = views[0][2] if sobel else padded("left", left, 1, 1)
+    table = texture_table(weak_texture_gain)  # one entry (16) when the gain is 1 or less: no Sobel made
 
     def rows(t: int, task) -> None:
         side, (y0, y1) = task
@@ -349,11 +342,10 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
             census_quarters_rows(padded_c, w // 2, h // 2, y0, y1, code)
         if sobel:
             sobel_rows(padded_s, y0, y1, sob)
-        if side == 0 and table is not None:
-            weak_texture_rows(padded_t, y0, y1, table, scale)
+        if side == 0:
+            weak_texture_rows(padded_s, y0, y1, table, scale)
 
-    tasks = [(side, band) for side in (0, 1) for band in stripes(H)
-             if census or sobel or (side == 0 and table is not None)]
+    tasks = [(side, band) for side in (0, 1) for band in stripes(H) if census or sobel or side == 0]
     run_tasks(tasks, workers_for(threads, len(tasks)), rows)
     (_, lcode, _, lsob, lint), (_, rcode, _, rsob, rint) = views
     feats = check_features(features, H, W) if cost == "features" else ()  # else the placeholders
@@ -508,7 +500,7 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
     p1, p2 : SGM penalties, 0 <= p1 <= p2.
     paths : 8, 4 (left, right, top, bottom) or 3 (left, right, top: OpenCV MODE_SGBM_3WAY's directions).
     adaptive_p2 : P2 / (1 + |I(p) - I(p - r)|), never below P1.
-    weak_texture_gain : at most this factor on P1 and P2 at pixels of weak texture (``cost.weak_texture_scale``,
+    weak_texture_gain : at most this factor on P1 and P2 at pixels of weak texture (``texture.weak_texture_scale``,
         in sixteenths; 1 = the same penalties everywhere).
     uniqueness : reject when a disparity more than 1 away has sum * (1 - uniqueness) < best sum.
     lr_check : left-right check threshold in pixels; None = off.

@@ -159,7 +159,8 @@ def _weak_texture_pair(seed: int, h: int = 12, w: int = 30, shift: int = 3):
 
 
 def test_weak_texture_scale_is_the_documented_integer_formula():
-    from stereo_classic.matching._kernels.cost import TEXTURE_REFERENCE, TEXTURE_WINDOW, weak_texture_scale
+    from stereo_classic.matching._kernels.cost import TEXTURE_REFERENCE, TEXTURE_WINDOW
+    from stereo_classic.matching._kernels.texture import weak_texture_scale
 
     left, _ = _weak_texture_pair(3, h=20, w=40)
     got = weak_texture_scale(left, 4.0)
@@ -183,7 +184,7 @@ def test_weak_texture_rows_in_any_stripes_are_the_whole_image(h, w):
     image's, which the test above checks against the formula, for every cut, images smaller than the window too."""
     import cv2
 
-    from stereo_classic.matching._kernels.cost import texture_table, weak_texture_rows, weak_texture_scale
+    from stereo_classic.matching._kernels.texture import texture_table, weak_texture_rows, weak_texture_scale
 
     rng = np.random.default_rng(h * 100 + w)
     left = rng.integers(0, 256, (h, w), dtype=np.uint8)
@@ -196,7 +197,7 @@ def test_weak_texture_rows_in_any_stripes_are_the_whole_image(h, w):
         for y0, y1 in zip(cuts[:-1], cuts[1:]):
             weak_texture_rows(padded, y0, y1, texture_table(4.0), got)
         np.testing.assert_array_equal(got, whole)
-    assert texture_table(1.0) is None
+    assert texture_table(1.0).tolist() == [16]  # gain 1: 16 everywhere
 
 
 def test_first_equal_is_the_first_index_of_a_value():
@@ -222,7 +223,7 @@ def test_weak_texture_penalties_match_reference(cost, paths, adaptive, threads):
     """Both kernels (one sweep for 3 paths, two passes for 4 and 8) with per-pixel penalties: P1 and P2 times the
     pixel's weak-texture factor, against the reference given the same factors; the SAD cost's scaling leaves room
     for the largest P2."""
-    from stereo_classic.matching._kernels.cost import weak_texture_scale
+    from stereo_classic.matching._kernels.texture import weak_texture_scale
 
     left, right = _weak_texture_pair(41)
     scale = weak_texture_scale(left, 4.0)
