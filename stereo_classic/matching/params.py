@@ -196,6 +196,15 @@ class SGMParams:
         Units are those of the cost: Hamming bits for census, raw window SAD for "sad" (the kernels
         scale SAD and the penalties together). P2 times ``weak_texture_gain`` is limited by the int16 path
         sums (census 9x7: at most 1344; census+grad 1323). See ``effective_p1`` / ``effective_p2``.
+    p1_vertical : int or None
+        P1 of the paths that cross rows (from above; with ``paths`` 4 and 8 also from below and the diagonals).
+        None: ``p1``'s value (the default for ``cost`` when ``p1`` is None).
+    p1_vertical_texture : bool
+        Multiply ``p1_vertical`` by the weak-texture factor, as P1 and P2 are (default True). False: a surface slanted
+        in y (a road seen from a car) steps by one disparity every few rows and pays P1 for each step on the paths
+        that cross rows only, and does not pay it up to ``weak_texture_gain`` times: driving frames 7.98 -> 7.23
+        dense bad-2, indoor scenes unchanged, but the guide finds the floor of fewer OAK-D scenes (docs/matching.md,
+        "Slanted surfaces"), so it is not the default.
     cost : {"census+grad", "census", "sad"}
         Matching cost. "census+grad" (default): census Hamming distance plus the window mean of the
         absolute x-gradient difference: census is robust to exposure differences and fine structure,
@@ -282,6 +291,10 @@ class SGMParams:
         "help": "penalty for a 1 px disparity change (default: by cost)", "metavar": "P1"})
     p2: int | None = dataclasses.field(default=None, metadata={
         "help": "penalty for larger disparity changes, > p1 (default: by cost)", "metavar": "P2"})
+    p1_vertical: int | None = dataclasses.field(default=None, metadata={
+        "help": "P1 of the paths that cross rows (default: P1)", "metavar": "P1"})
+    p1_vertical_texture: bool = dataclasses.field(default=True, metadata={
+        "help": "do not raise the vertical paths' P1 on weak texture (better on roads seen from a car)"})
     cost: str = dataclasses.field(default="census+grad", metadata={
         "help": "matching cost: census+grad (census + x-gradient), census, sad (the paper's), mccnn (the shipped "
                 "learned cost) or features (--feature-model)",
@@ -361,7 +374,7 @@ class SGMParams:
         self._check_learned(fail, normalise)
 
         # penalties
-        for field in ("p1", "p2"):
+        for field in ("p1", "p2", "p1_vertical"):
             value = getattr(self, field)
             if value is not None:
                 if not _is_int(value) or not 0 <= value <= MAX_PENALTY:
@@ -371,12 +384,14 @@ class SGMParams:
         if p2 <= p1:
             note = " (None means the default for this cost)" if self.p1 is None or self.p2 is None else ""
             raise ValueError(f"`p2` must be larger than `p1`, got p1={p1} and p2={p2}{note}")
+        if self.p1_vertical is not None and self.p1_vertical >= p2:
+            raise ValueError(f"`p1_vertical` must be smaller than p2={p2}, got {self.p1_vertical}")
         # the kernels' own, tighter limit on P2: their int16 path sums must not overflow
         if not _is_real(self.weak_texture_gain) or not 1 <= self.weak_texture_gain <= MAX_TEXTURE_GAIN:
             fail("weak_texture_gain", f"a number between 1 (off) and {MAX_TEXTURE_GAIN}", self.weak_texture_gain)
         normalise("weak_texture_gain", float(self.weak_texture_gain))
         kernels.check_penalties("features" if self.cost in LEARNED_COSTS else self.cost, self.block_size, self.census_window, p1, p2, self.weak_texture_gain)
-        for field in ("adaptive_p2", "subpixel", "fill_holes", "right_view"):
+        for field in ("adaptive_p2", "p1_vertical_texture", "subpixel", "fill_holes", "right_view"):
             value = getattr(self, field)
             if not isinstance(value, bool):
                 fail(field, "True or False", value)
@@ -477,6 +492,11 @@ class SGMParams:
         if self.cost in LEARNED_COSTS:
             return _LEARNED_P2
         return _CENSUS_P2 if self.cost == "census" else _SAD_P2_PER_PIXEL * self.block_size**2
+
+    @property
+    def effective_p1_vertical(self) -> int:
+        """P1 of the paths that cross rows: ``p1_vertical``, or ``effective_p1`` when it is None."""
+        return self.p1_vertical if self.p1_vertical is not None else self.effective_p1
 
     @property
     def effective_threads(self) -> int:

@@ -138,16 +138,22 @@ def _window_sums(left, right, min_disparity, D, block_size, *, intensity) -> np.
 
 
 def path_reference(C: np.ndarray, direction: int, p1: int, p2: int, image: np.ndarray | None = None,
-                   scale: np.ndarray | None = None) -> np.ndarray:
+                   scale: np.ndarray | None = None, *, p1_cross: int | None = None,
+                   cross_texture: bool = True) -> np.ndarray:
     """L_r for one direction (index into ``_kernels.core.PATH_STEPS``), int64 (H, W, D).
 
     L(p, d) = C(p, d) + min(L(p-r, d), L(p-r, d-1) + P1, L(p-r, d+1) + P1, min_k L(p-r, k) + P2)
               - min_k L(p-r, k),   and L(p) = C(p) where p - r is outside the image.
-    With ``scale`` ((H, W) sixteenths, ``weak_texture_scale``) the penalties at p are (P * scale(p) + 8) >> 4.
+    A direction that crosses rows (dy != 0) uses ``p1_cross`` (None: ``p1``) as P1.
+    With ``scale`` ((H, W) sixteenths, ``weak_texture_scale``) the penalties at p are (P * scale(p) + 8) >> 4, P1 of
+    a direction that crosses rows only with ``cross_texture``.
     With ``image`` given, P2 is adaptive: max(P1, P2 // (1 + |I(p) - I(p-r)|)) (of p's penalties).
     """
     H, W, D = C.shape
     dx, dy = PATH_STEPS[direction]
+    crosses = dy != 0
+    if crosses and p1_cross is not None:
+        p1 = p1_cross
     L = np.zeros((H, W, D), np.int64)
     ys = range(H) if dy >= 0 else range(H - 1, -1, -1)
     xs = list(range(W)) if dx >= 0 else list(range(W - 1, -1, -1))
@@ -162,7 +168,9 @@ def path_reference(C: np.ndarray, direction: int, p1: int, p2: int, image: np.nd
             mp = prev.min()
             p1e, p2e = p1, p2
             if scale is not None:
-                p1e, p2e = (p1 * int(scale[y, x]) + 8) >> 4, (p2 * int(scale[y, x]) + 8) >> 4
+                p2e = (p2 * int(scale[y, x]) + 8) >> 4
+                if cross_texture or not crosses:
+                    p1e = (p1 * int(scale[y, x]) + 8) >> 4
             if image is not None:
                 p2e = max(p1e, p2e // (1 + abs(int(image[y, x]) - int(image[yp, xp]))))
             best = np.minimum(prev, mp + p2e)
@@ -174,12 +182,13 @@ def path_reference(C: np.ndarray, direction: int, p1: int, p2: int, image: np.nd
 
 
 def sum_reference(C: np.ndarray, path_mask: int, p1: int, p2: int, image: np.ndarray | None = None,
-                  scale: np.ndarray | None = None) -> np.ndarray:
+                  scale: np.ndarray | None = None, *, p1_cross: int | None = None,
+                  cross_texture: bool = True) -> np.ndarray:
     """Sum of path_reference over the directions whose bit is set in path_mask."""
     S = np.zeros(C.shape, np.int64)
     for r in range(8):
         if path_mask >> r & 1:
-            S += path_reference(C, r, p1, p2, image, scale)
+            S += path_reference(C, r, p1, p2, image, scale, p1_cross=p1_cross, cross_texture=cross_texture)
     return S
 
 

@@ -355,10 +355,11 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
          path_mask, adaptive_p2, uniqueness, lr_check, subpixel, threads, select=True, keep_sums=False,
          workspace=None, return_right=False, lr_mode="full", scratch_output=False, weak_texture_gain=1.0,
-         features=None, feature_similarity="dot"):
+         features=None, feature_similarity="dot", p1_cross=None, cross_texture=True):
     if cost not in _KIND:
         raise ValueError(f"`cost` must be one of {sorted(_KIND)}, got {cost!r}")
-    check_penalties(cost, block_size, census_window, int(p1), int(p2), weak_texture_gain)
+    p1_cross = int(p1) if p1_cross is None else int(p1_cross)
+    check_penalties(cost, block_size, census_window, int(p1), int(p2), weak_texture_gain, p1_cross)
     kind = _KIND[cost]
     H, W = left.shape
     n_disp = int(num_disparities)
@@ -410,7 +411,8 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
         raise ValueError(f"`lr_mode` must be 'full' or 'opencv', got {lr_mode!r}")
     lr_claims = lr_check is not None and lr_mode == "opencv"
     right_view = bool(return_right) or (lr_check is not None and not lr_claims)
-    settings = PassSettings(p1=p1s, p2=p2s, adaptive_p2=bool(adaptive_p2), path_mask=int(path_mask),
+    settings = PassSettings(p1=p1s, p2=p2s, p1_cross=p1_cross >> shift, cross_texture=bool(cross_texture),
+                            adaptive_p2=bool(adaptive_p2), path_mask=int(path_mask),
                             uniqueness=float(uniqueness), lr_threshold=lr_thr, lr_claims=bool(lr_claims),
                             subpixel=bool(subpixel), right_view=bool(right_view))
     out = PassOutputs(sums=S.reshape(-1), disparity=disp, disparity_right=dispR)
@@ -485,7 +487,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
               uniqueness: float = 0.0, lr_check: float | None = 1.0, subpixel: bool = True,
               threads: int = 2, workspace: Workspace | None = None, return_right: bool = False,
               lr_mode: str = "full", scratch_output: bool = False, weak_texture_gain: float = 1.0,
-              features: tuple[np.ndarray, np.ndarray] | None = None, feature_similarity: str = "dot"
+              features: tuple[np.ndarray, np.ndarray] | None = None, feature_similarity: str = "dot",
+              p1_cross: int | None = None, cross_texture: bool = True
               ) -> tuple[np.ndarray, np.ndarray | None, dict[str, float]]:
     """Semi-global matching of a rectified grey pair (inputs already validated by the caller).
 
@@ -498,26 +501,22 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
         census, raw window SAD for "sad" (scaled internally with the cost so the sums fit int16).
     min_disparity, num_disparities : disparity range [min, min + num), d = x_left - x_right.
     p1, p2 : SGM penalties, 0 <= p1 <= p2.
+    p1_cross, cross_texture : P1 of the paths that cross rows (None: p1), and whether the weak-texture factor scales it.
     paths : 8, 4 (left, right, top, bottom) or 3 (left, right, top: OpenCV MODE_SGBM_3WAY's directions).
     adaptive_p2 : P2 / (1 + |I(p) - I(p - r)|), never below P1.
     weak_texture_gain : at most this factor on P1 and P2 at pixels of weak texture (``texture.weak_texture_scale``,
         in sixteenths; 1 = the same penalties everywhere).
     uniqueness : reject when a disparity more than 1 away has sum * (1 - uniqueness) < best sum.
     lr_check : left-right check threshold in pixels; None = off.
-    lr_mode : "full" (default): reject when |d - d_right(x - d)| > lr_check, d_right being the
-        winner-takes-all of the right view from the same sums (removes more wrong pixels: best
-        before hole filling). "opencv": as OpenCV's StereoSGBM, each right pixel is claimed by the
-        left pixel with the lowest aggregated cost among those whose winner lands on it, and a left
-        pixel is rejected when the claims at x - floor(d) and x - ceil(d) both differ from it by more
-        than lr_check (mostly occlusions: best when unknown pixels count as errors; cheaper).
+    lr_mode : "full" (default): reject when |d - d_right(x - d)| > lr_check, d_right being the winner-takes-all of
+        the right view from the same sums. "opencv": StereoSGBM's collision check (``SGMParams.lr_mode``).
     subpixel : parabola fit through the best sum and its two neighbours.
     threads : worker threads, >= 1: the image is cut into stripes of about STRIPE_ROWS rows (fixed by the
         height alone) that the workers take in turn; the result is the same for every thread count. At most
         one worker per stripe and per usable CPU (``usable_cpus``) runs.
     workspace : a ``Workspace`` to keep the big buffers between calls on one image size (None:
         allocate per call).
-    return_right : also return the right-view disparity (computed anyway for lr_mode "full" with the
-        LR check on; otherwise about 5 % more time).
+    return_right : also return the right-view disparity (computed anyway for the "full" LR check).
     scratch_output : the left disparity may be an array of ``workspace``, overwritten by its next call (for a
         caller that makes a new map of it anyway).
     features, feature_similarity : ``cost="features"``: the int8 unit features of both views, (H, C, W) each
@@ -554,7 +553,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
                                    return_right=return_right, lr_mode=lr_mode,
                                    scratch_output=scratch_output and workspace is not None,
                                    weak_texture_gain=weak_texture_gain, features=features,
-                                   feature_similarity=feature_similarity)
+                                   feature_similarity=feature_similarity, p1_cross=p1_cross,
+                                   cross_texture=cross_texture)
     return disp, dispR, timings
 
 

@@ -241,6 +241,38 @@ def test_weak_texture_penalties_match_reference(cost, paths, adaptive, threads):
     assert not np.array_equal(got, plain)  # the factors changed the sums
 
 
+@pytest.mark.parametrize("cost, paths, adaptive, p1_cross, cross_texture", [
+    ("census+grad", 3, False, 28, False), ("census+grad", 8, False, 28, False), ("census+grad", 3, True, 19, False),
+    ("sad", 4, True, 90, False), ("census", 8, False, 13, True), ("census+grad", 3, False, 60, True)])
+@pytest.mark.parametrize("threads", [1, 2])
+def test_cross_row_p1_matches_reference(cost, paths, adaptive, p1_cross, cross_texture, threads):
+    """Both kernels with a P1 of their own on the paths that cross rows (vertical and diagonal), with or without the
+    weak-texture factor, against the reference; the horizontal paths keep P1 times the factor."""
+    from stereo_classic.matching._kernels.cost import weak_texture_scale
+
+    left, right = _weak_texture_pair(43)
+    scale = weak_texture_scale(left, 4.0)
+    p1, p2 = (28, 112) if cost != "sad" else (200, 800)
+    kw = dict(cost=cost, min_disparity=-1, num_disparities=9, block_size=5, census_window=(9, 7))
+    shift, _ = core.cost_scale(cost, 5, (9, 7), (p2 * 64 + 8) >> 4)
+    C = ref.cost_volume_reference(left, right, p2=(p2 * 64 + 8) >> 4, **kw)
+    mask = core.PATH_MASKS[paths]
+    image = left if adaptive else None
+    want = ref.sum_reference(C, mask, p1 >> shift, p2 >> shift, image=image, scale=scale,
+                             p1_cross=p1_cross >> shift, cross_texture=cross_texture)
+    got = core.sum_volume(left, right, path_mask=mask, threads=threads, p1=p1, p2=p2, adaptive_p2=adaptive,
+                          weak_texture_gain=4.0, p1_cross=p1_cross, cross_texture=cross_texture, **kw)
+    np.testing.assert_array_equal(got, want)
+    same = ref.sum_reference(C, mask, p1 >> shift, p2 >> shift, image=image, scale=scale)
+    assert not np.array_equal(got, same)  # the rows-crossing P1 changed the sums
+
+
+def test_cross_row_p1_is_bounded_by_p2():
+    left, right = _pair(44)
+    with pytest.raises(ValueError, match="p1_cross"):
+        core.sum_volume(left, right, path_mask=core.THREE_PATHS, p1=20, p2=80, p1_cross=81)
+
+
 def test_weak_texture_gain_is_bounded_by_the_int16_sums():
     core.check_penalties("census", 5, (9, 7), 100, 336, 4.0)  # 336 * 4 = 1344: the largest census P2 at a pixel
     with pytest.raises(ValueError, match="weak_texture_gain"):
