@@ -248,7 +248,7 @@ def test_weak_texture_penalties_match_reference(cost, paths, adaptive, threads):
 def test_cross_row_p1_matches_reference(cost, paths, adaptive, p1_cross, cross_texture, threads):
     """Both kernels with a P1 of their own on the paths that cross rows (vertical and diagonal), with or without the
     weak-texture factor, against the reference; the horizontal paths keep P1 times the factor."""
-    from stereo_classic.matching._kernels.cost import weak_texture_scale
+    from stereo_classic.matching._kernels.texture import weak_texture_scale
 
     left, right = _weak_texture_pair(43)
     scale = weak_texture_scale(left, 4.0)
