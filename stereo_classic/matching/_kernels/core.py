@@ -47,11 +47,11 @@ from stereo_classic.matching._kernels.cost import (
     cost_volume_kernel,
     largest_p2,
     sobel_rows,
-    weak_texture_scale,
 )
 from stereo_classic.matching._kernels.features import FEATURES, check_features, with_features
 from stereo_classic.matching._kernels.rowpass import (RowPassBuffers, StripePlan, row_pass_buffers, row_pass_bytes,
                                                      three_path_stripe)
+from stereo_classic.matching._kernels.texture import texture_table, weak_texture_rows
 from stereo_classic.matching._kernels.workers import run_chained, run_stripes, run_tasks
 
 __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume", "check_penalties", "cost_scale",
@@ -304,8 +304,8 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
                   features=None) -> CostImages:
     """The cost's input images of both views: census quarters and / or the x-Sobel channel (with the image itself
     for SAD), made in stripes of rows of both images on ``threads`` workers, into arrays of ``workspace``; and the
-    left image's per-pixel penalty factors (``weak_texture_scale``). ``cost="features"``: ``features`` is the pair
-    (left, right) of (H, C, W) int8 arrays the row cost reads (``learned.FeatureModel.features``)."""
+    left image's penalty factors (``weak_texture_scale``, by the left view's stripes). ``cost="features"``: ``features``
+    is the pair (left, right) of (H, C, W) int8 arrays the row cost reads (``learned.FeatureModel.features``)."""
     H, W = left.shape
     w, h = census_window
     census, sobel = cost in ("census", "census+grad"), cost in ("sad", "census+grad")
@@ -322,26 +322,25 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
         views.append((
             padded(side, img, h // 2, w // 2) if census else None,
             scratch(side + "_code", (H, W, 4), np.uint16) if census else _placeholder(np.uint16, 3),
-            padded(side, img, 1, 1) if sobel else None,
+            padded(side, img, 1, 1) if sobel or side == "left" else None,  # the left one for the penalty factors too
             scratch(side + "_sobel", (H, W), np.int16) if sobel else _placeholder(np.int16, 2),
             # no intensity term but for SAD: the kernels read no intensity image then
             img.astype(np.int16) if cost == "sad" else _placeholder(np.int16, 2)))
 
     scale = scratch("penalty_scale", (H, W), np.uint8)
+    table = texture_table(weak_texture_gain)  # one entry (16) when the gain is 1 or less: no Sobel made
 
     def rows(t: int, task) -> None:
-        side, band = task
-        if band is None:  # the penalty factors: one task of their own, taken first, beside the stripes
-            weak_texture_scale(left, weak_texture_gain, scale, scratch=scratch)
-            return
-        y0, y1 = band
+        side, (y0, y1) = task
         padded_c, code, padded_s, sob, _ = views[side]
         if census:
             census_quarters_rows(padded_c, w // 2, h // 2, y0, y1, code)
         if sobel:
             sobel_rows(padded_s, y0, y1, sob)
+        if side == 0:
+            weak_texture_rows(padded_s, y0, y1, table, scale)
 
-    tasks = [(0, None)] + [(side, band) for side in (0, 1) for band in stripes(H) if census or sobel]
+    tasks = [(side, band) for side in (0, 1) for band in stripes(H) if census or sobel or side == 0]
     run_tasks(tasks, workers_for(threads, len(tasks)), rows)
     (_, lcode, _, lsob, lint), (_, rcode, _, rsob, rint) = views
     feats = check_features(features, H, W) if cost == "features" else ()  # else the placeholders
@@ -503,7 +502,7 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
     outside_cost : cost of a match outside the right image (a winner there is unknown); None: never wins.
     paths : 8, 4 (left, right, top, bottom) or 3 (left, right, top: OpenCV MODE_SGBM_3WAY's directions).
     adaptive_p2 : P2 / (1 + |I(p) - I(p - r)|), never below P1.
-    weak_texture_gain : at most this factor on P1 and P2 at pixels of weak texture (``cost.weak_texture_scale``,
+    weak_texture_gain : at most this factor on P1 and P2 at pixels of weak texture (``texture.weak_texture_scale``,
         in sixteenths; 1 = the same penalties everywhere).
     uniqueness : reject when a disparity more than 1 away has sum * (1 - uniqueness) < best sum.
     lr_check : left-right check threshold in pixels; None = off.

@@ -66,7 +66,6 @@ __all__ = [
     "largest_p2",
     "max_penalty_scale",
     "pixel_penalties",
-    "weak_texture_scale",
 ]
 
 SOBEL_CAP = 31
@@ -555,46 +554,3 @@ def pixel_penalties(p1, p2, scale):  # pragma: no cover - numba
     """(P1, P2) of a pixel as int16: the int32 penalties times its ``weak_texture_scale`` (sixteenths), rounded."""
     s = np.int32(scale)
     return np.int16((p1 * s + 8) >> 4), np.int16((p2 * s + 8) >> 4)
-
-
-def _scale_table(top: int) -> np.ndarray:
-    """``weak_texture_scale``'s value for each window sum 0 .. TEXTURE_REFERENCE * n (above: 16), uint8."""
-    n = TEXTURE_WINDOW * TEXTURE_WINDOW
-    sums = np.arange(TEXTURE_REFERENCE * n + 1, dtype=np.int64)
-    # 16 * REF / (sums / n), rounded half up: (32 * REF * n + sums) // (2 * sums); a flat window (sums 0) gets the top
-    table = (32 * TEXTURE_REFERENCE * n + sums) // np.maximum(2 * sums, 1)
-    return np.clip(table, 16, top).astype(np.uint8)
-
-
-_SCALE_TABLES: dict[int, np.ndarray] = {}
-
-
-def weak_texture_scale(left: np.ndarray, gain: float, out: np.ndarray | None = None, *, scratch=None) -> np.ndarray:
-    """(H, W) uint8 penalty factors in sixteenths: ``clip(16 * TEXTURE_REFERENCE / t, 16, max_penalty_scale(gain))``
-    rounded half up, ``t`` the TEXTURE_WINDOW x TEXTURE_WINDOW window mean of ``|Sobel_x(left)|`` (borders
-    replicated), in integer arithmetic through a table (the same numbers on every machine and thread count); all 16
-    when ``gain`` <= 1. ``scratch(name, shape, dtype)`` gives the temporaries (a workspace's: no fresh arrays per
-    call), default new arrays."""
-    import cv2
-
-    if out is None:
-        out = np.empty(left.shape, np.uint8)
-    top = max_penalty_scale(gain)
-    if top <= 16:
-        out[...] = 16
-        return out
-    table = _SCALE_TABLES.get(top)
-    if table is None:
-        table = _SCALE_TABLES[top] = _scale_table(top)
-    if scratch is None:
-        def scratch(name, shape, dtype):
-            return np.empty(shape, dtype)
-    grad = cv2.Sobel(left, cv2.CV_16S, 1, 0, dst=scratch("texture_grad", left.shape, np.int16), ksize=3,
-                     borderType=cv2.BORDER_REPLICATE)
-    np.abs(grad, out=grad)  # at most 4 * 255: the same bits as uint16
-    sums = cv2.boxFilter(grad.view(np.uint16), cv2.CV_32S, (TEXTURE_WINDOW, TEXTURE_WINDOW),
-                         dst=scratch("texture_sums", left.shape, np.int32), normalize=False,
-                         borderType=cv2.BORDER_REPLICATE)
-    np.minimum(sums, table.size - 1, out=sums)  # every larger sum is textured: 16
-    np.take(table, sums, out=out, mode="clip")  # "clip": not buffered (the indices are in range)
-    return out

@@ -159,7 +159,8 @@ def _weak_texture_pair(seed: int, h: int = 12, w: int = 30, shift: int = 3):
 
 
 def test_weak_texture_scale_is_the_documented_integer_formula():
-    from stereo_classic.matching._kernels.cost import TEXTURE_REFERENCE, TEXTURE_WINDOW, weak_texture_scale
+    from stereo_classic.matching._kernels.cost import TEXTURE_REFERENCE, TEXTURE_WINDOW
+    from stereo_classic.matching._kernels.texture import weak_texture_scale
 
     left, _ = _weak_texture_pair(3, h=20, w=40)
     got = weak_texture_scale(left, 4.0)
@@ -177,6 +178,44 @@ def test_weak_texture_scale_is_the_documented_integer_formula():
     assert weak_texture_scale(np.full((8, 9), 7, np.uint8), 2.5).tolist() == [[40] * 9] * 8  # flat: the gain
 
 
+@pytest.mark.parametrize("h, w", [(1, 1), (3, 2), (6, 7), (37, 53)])
+def test_weak_texture_rows_in_any_stripes_are_the_whole_image(h, w):
+    """The weak-texture factors made stripe by stripe (as ``_prepare_cost``'s workers make them) equal the whole
+    image's, which the test above checks against the formula, for every cut, images smaller than the window too."""
+    import cv2
+
+    from stereo_classic.matching._kernels.texture import texture_table, weak_texture_rows, weak_texture_scale
+
+    rng = np.random.default_rng(h * 100 + w)
+    left = rng.integers(0, 256, (h, w), dtype=np.uint8)
+    left[:, : w // 2] //= 32  # weak texture on the left half
+    whole = weak_texture_scale(left, 4.0)
+    padded = cv2.copyMakeBorder(left, 1, 1, 1, 1, cv2.BORDER_REPLICATE)
+    for _ in range(4):
+        cuts = sorted({0, h, *rng.integers(0, h + 1, 3).tolist()})
+        got = np.zeros_like(left)
+        for y0, y1 in zip(cuts[:-1], cuts[1:]):
+            weak_texture_rows(padded, y0, y1, texture_table(4.0), got)
+        np.testing.assert_array_equal(got, whole)
+    assert texture_table(1.0).tolist() == [16]  # gain 1: 16 everywhere
+
+
+def test_first_equal_is_the_first_index_of_a_value():
+    """``select.first_equal`` (whole blocks of 32 lanes by a vector compare read as a mask, then one by one) is the
+    first index of the value, in rows of any length, and _INT16_MAX where the value is absent."""
+    from stereo_classic.matching._kernels.select import _INT16_MAX, first_equal
+
+    rng = np.random.default_rng(5)
+    for n in (1, 5, 31, 32, 33, 64, 95, 128, 160):
+        for _ in range(30):
+            row = rng.integers(0, 6, 3 * n + 7).astype(np.int16)
+            start = int(rng.integers(0, 2 * n + 8))
+            value = np.int16(rng.integers(0, 7))
+            hits = np.flatnonzero(row[start:start + n] == value)
+            want = int(hits[0]) if hits.size else _INT16_MAX
+            assert first_equal(row, start, n, value) == want
+
+
 @pytest.mark.parametrize("cost, paths, adaptive", [("census+grad", 3, False), ("census+grad", 8, False),
                                                     ("sad", 3, True), ("census", 4, True), ("sad", 8, False)])
 @pytest.mark.parametrize("threads", [1, 2])
@@ -184,7 +223,7 @@ def test_weak_texture_penalties_match_reference(cost, paths, adaptive, threads):
     """Both kernels (one sweep for 3 paths, two passes for 4 and 8) with per-pixel penalties: P1 and P2 times the
     pixel's weak-texture factor, against the reference given the same factors; the SAD cost's scaling leaves room
     for the largest P2."""
-    from stereo_classic.matching._kernels.cost import weak_texture_scale
+    from stereo_classic.matching._kernels.texture import weak_texture_scale
 
     left, right = _weak_texture_pair(41)
     scale = weak_texture_scale(left, 4.0)
@@ -209,7 +248,7 @@ def test_weak_texture_penalties_match_reference(cost, paths, adaptive, threads):
 def test_cross_row_p1_matches_reference(cost, paths, adaptive, p1_cross, cross_texture, threads):
     """Both kernels with a P1 of their own on the paths that cross rows (vertical and diagonal), with or without the
     weak-texture factor, against the reference; the horizontal paths keep P1 times the factor."""
-    from stereo_classic.matching._kernels.cost import weak_texture_scale
+    from stereo_classic.matching._kernels.texture import weak_texture_scale
 
     left, right = _weak_texture_pair(43)
     scale = weak_texture_scale(left, 4.0)
