@@ -307,13 +307,13 @@ def _reach(width: int, params: SGMParams) -> np.ndarray:
 
 
 def _short_reach(reach: np.ndarray, params: SGMParams) -> np.ndarray:
-    """(W,) bool: columns whose pixels can search fewer than ``border_reach * num_disparities`` disparities.
+    """(W,) bool: columns whose pixels can search fewer than ``effective_border_reach * num_disparities`` disparities.
 
     At the image borders part of the range maps outside the right image; where most of it does, the true
     match is likely out of reach and the winner of what is left is not a measurement (on the OAK-D scenes
     such pixels came out at d ~ 0, "far away", at the left edge of a room).
     """
-    return (reach > 0) & (reach < params.border_reach * params.num_disparities)
+    return (reach > 0) & (reach < params.effective_border_reach * params.num_disparities)
 
 
 def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None = None,

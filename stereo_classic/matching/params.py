@@ -87,6 +87,10 @@ _SAD_P2_PER_PIXEL = 32
 # scenes (dense bad-2 Middlebury-style / driving) against MC-CNN's flat 2.3 / 24.3 without the edge rule 10.7 / 11.5,
 # with it 6.9 / 10.4; this 7.1 / 9.4 (docs/matching.md, "Learned costs").
 _LEARNED_P1 = round(2.3 / 2 * FEATURE_SCALE)
+# MC-CNN's SGM divides P1 by 1.5 on its vertical paths (``sgm_V``): the P1 of the paths that cross rows.
+_LEARNED_VERTICAL = 1.5
+# border_reach of the classical costs (see the field).
+_BORDER_REACH = 0.5
 _LEARNED_P2 = round(24.3 / 2 * FEATURE_SCALE)
 
 
@@ -198,7 +202,8 @@ class SGMParams:
         sums (census 9x7: at most 1344; census+grad 1323). See ``effective_p1`` / ``effective_p2``.
     p1_vertical : int or None
         P1 of the paths that cross rows (from above; with ``paths`` 4 and 8 also from below and the diagonals).
-        None: ``p1``'s value (the default for ``cost`` when ``p1`` is None).
+        None: ``p1``'s value (the default for ``cost`` when ``p1`` is None); a learned cost: that divided by 1.5
+        (MC-CNN's rule), ``effective_p1_vertical``.
     p1_vertical_texture : bool
         Multiply ``p1_vertical`` by the weak-texture factor, as P1 and P2 are (default True). False: a surface slanted
         in y (a road seen from a car) steps by one disparity every few rows and pays P1 for each step on the paths
@@ -256,14 +261,16 @@ class SGMParams:
         pixels are set unknown; 0 = off. Default 100.
     speckle_range : float
         Largest disparity step inside one speckle region, pixels. Default 2.0.
-    border_reach : float
+    border_reach : float or None
         0 .. 1. Pixels near the image borders can search only the part of the range that maps inside the
         right image; those that can search less than this fraction of ``num_disparities`` are set unknown
         (their true match is likely out of reach: a winner at d ~ 0 reads as "far away"). With
         ``fill_holes`` they are then filled from the background next to them (marked as filled). 0 keeps
-        every pixel with at least one candidate. Default 0.5 (measured on the shared scenes, dense bad-2,
-        Middlebury-style / driving, with the same penalties everywhere: keep all 6.8 / 18.6, 0.5 6.5 / 15.9, 1.0
-        8.2 / 16.8; with the weak-texture penalties: keep all 7.9 / 11.8, 0.5 6.7 / 8.0).
+        every pixel with at least one candidate. None (default): 0.5 for the classical costs (measured on the
+        shared scenes, dense bad-2, Middlebury-style / driving, with the same penalties everywhere: keep all
+        6.8 / 18.6, 0.5 6.5 / 15.9, 1.0 8.2 / 16.8; with the weak-texture penalties: keep all 7.9 / 11.8, 0.5
+        6.7 / 8.0), 0 for the learned ones, whose candidates outside the right image have a neutral cost (a pixel
+        whose match is out of reach picks one of them and is unknown by itself). See ``effective_border_reach``.
     fill_holes : bool
         Fill unknown pixels from the background side of each row, then a 3x3 median
         (dense output, not a measurement: ``DisparityMap.filled_disparity`` holds them, ``DisparityMap.filled``
@@ -329,9 +336,9 @@ class SGMParams:
         "help": "remove regions of at most this many pixels, 0 = off", "metavar": "PIXELS"})
     speckle_range: float = dataclasses.field(default=2.0, metadata={
         "help": "largest disparity step inside one speckle region, px", "metavar": "PX"})
-    border_reach: float = dataclasses.field(default=0.5, metadata={
-        "help": "border pixels that can search less than this fraction of the range are unknown (0 = keep all)",
-        "metavar": "FRACTION"})
+    border_reach: float | None = dataclasses.field(default=None, metadata={
+        "help": "border pixels that can search less than this fraction of the range are unknown (0 = keep all; "
+                "default: 0.5, 0 for a learned cost)", "metavar": "FRACTION"})
     fill_holes: bool = dataclasses.field(default=True, metadata={
         "help": "fill unknown pixels from the background side of their row (dense map; filled pixels are "
                 "marked and never make a distance); --no-fill-holes leaves them unknown"})
@@ -410,9 +417,10 @@ class SGMParams:
         if not _is_int(self.speckle_size) or self.speckle_size < 0:
             fail("speckle_size", "a non-negative integer number of pixels (0 = off)", self.speckle_size)
         normalise("speckle_size", int(self.speckle_size))
-        if not _is_real(self.border_reach) or not 0.0 <= self.border_reach <= 1.0:
-            fail("border_reach", "a fraction between 0 and 1", self.border_reach)
-        normalise("border_reach", float(self.border_reach))
+        if self.border_reach is not None:
+            if not _is_real(self.border_reach) or not 0.0 <= self.border_reach <= 1.0:
+                fail("border_reach", "None (by cost) or a fraction between 0 and 1", self.border_reach)
+            normalise("border_reach", float(self.border_reach))
         if not _is_real(self.speckle_range) or not 0 <= self.speckle_range <= MAX_NUM_DISPARITIES:
             fail("speckle_range", "a non-negative number of pixels", self.speckle_range)
         normalise("speckle_range", float(self.speckle_range))
@@ -495,8 +503,19 @@ class SGMParams:
 
     @property
     def effective_p1_vertical(self) -> int:
-        """P1 of the paths that cross rows: ``p1_vertical``, or ``effective_p1`` when it is None."""
-        return self.p1_vertical if self.p1_vertical is not None else self.effective_p1
+        """P1 of the paths that cross rows: ``p1_vertical``, or when it is None ``effective_p1`` (a learned cost:
+        ``effective_p1 / 1.5`` rounded, MC-CNN's own rule for its vertical paths)."""
+        if self.p1_vertical is not None:
+            return self.p1_vertical
+        return round(self.effective_p1 / _LEARNED_VERTICAL) if self.learned else self.effective_p1
+
+    @property
+    def effective_border_reach(self) -> float:
+        """``border_reach``, or when it is None 0.5 for a classical cost and 0 for a learned one (its candidates
+        outside the right image have a neutral cost instead of a forbidding one: ``_kernels.features``)."""
+        if self.border_reach is not None:
+            return self.border_reach
+        return 0.0 if self.learned else _BORDER_REACH
 
     @property
     def effective_threads(self) -> int:

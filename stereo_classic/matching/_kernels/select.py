@@ -31,8 +31,9 @@ def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, rig
     right view's winners ``right_k`` (``right_sums`` / ``right_k`` per right pixel q = W - 1 - dmin - x_right:
     the lowest sum landing there and its disparity index, ties to the smallest; made by ``right_view_row``).
 
-    Winner-takes-all (first index of the minimum; disparities whose match is outside the right image always
-    sum higher than the others), uniqueness, parabola subpixel, then the left-right check of the row ("full":
+    Winner-takes-all (first index of the minimum; a winner whose match is outside the right image is unknown and
+    counted with the LR check's rejections: with a classical cost those disparities always sum higher than the
+    others, a learned cost gives them a neutral cost), uniqueness, parabola subpixel, then the left-right check of the row ("full":
     against the right view's winner; "opencv": against the claims, ties to the largest x), and the right-view
     disparity.
     """
@@ -72,6 +73,11 @@ def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, rig
         for k in range(D):  # first index of the minimum, in vector selects
             bk16 = min16(bk16, pick16(eq16(srow[_U(db + k)], ns), kidx[k], big))
         bk = np.int64(bk16)
+        if bk < k_lo or bk > k_hi:  # the match is outside the right image (a learned cost's neutral cost won):
+            disp[y, x] = nan  # not a measurement, unknown like a failed LR check (never for a classical cost)
+            best[x] = -1
+            counts[1] += 1
+            continue
         best[x] = bk
         if uniq > 0.0:
             m2 = big
