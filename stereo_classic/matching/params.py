@@ -85,7 +85,8 @@ _SAD_P2_PER_PIXEL = 32
 # (the kernels' edge-aware rule, ``adaptive_p2``, always on for learned costs) and, as for every cost, up to
 # ``weak_texture_gain`` times larger on weak texture: 1.15 * 25 and 12.15 * 25, rounded. Measured on the shared
 # scenes (dense bad-2 Middlebury-style / driving) against MC-CNN's flat 2.3 / 24.3 without the edge rule 10.7 / 11.5,
-# with it 6.9 / 10.4; this 7.1 / 9.4 (docs/matching.md, "Learned costs").
+# with it 6.9 / 10.4; this 7.1 / 9.4; with the neutral cost outside the right image (``_kernels.features``) and P1 / 1.5
+# on the paths that cross rows 6.3 / 9.0 on the six Middlebury-style scenes (docs/matching.md, "Learned costs").
 _LEARNED_P1 = round(2.3 / 2 * FEATURE_SCALE)
 # MC-CNN's SGM divides P1 by 1.5 on its vertical paths (``sgm_V``): the P1 of the paths that cross rows.
 _LEARNED_VERTICAL = 1.5

@@ -578,7 +578,7 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
     Exactly the costs the passes use (``cost.row_cost``, row by row; SAD scaled by ``cost_scale``, which depends on
     p2);
     disparities whose match falls outside the right image hold the invalid cost
-    ``cmax + 2 * p2_scaled + 1``. Not used on the fast path (it allocates the full volume).
+    ``cmax + 2 * p2_scaled + 1`` (learned: ``FEATURE_OUTSIDE``). Not on the fast path (it allocates the full volume).
     """
     if cost not in _KIND:
         raise ValueError(f"`cost` must be one of {sorted(_KIND)}, got {cost!r}")

@@ -33,9 +33,9 @@ def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, rig
 
     Winner-takes-all (first index of the minimum; a winner whose match is outside the right image is unknown and
     counted with the LR check's rejections: with a classical cost those disparities always sum higher than the
-    others, a learned cost gives them a neutral cost), uniqueness, parabola subpixel, then the left-right check of the row ("full":
-    against the right view's winner; "opencv": against the claims, ties to the largest x), and the right-view
-    disparity.
+    others, a learned cost gives them a neutral cost), uniqueness, parabola subpixel, then the left-right check of
+    the row ("full": against the right view's winner; "opencv": against the claims, ties to the largest x), and the
+    right-view disparity.
     """
     uniq = settings.uniqueness
     lr_thr = settings.lr_threshold
