@@ -272,6 +272,12 @@ class SGMParams:
         6.8 / 18.6, 0.5 6.5 / 15.9, 1.0 8.2 / 16.8; with the weak-texture penalties: keep all 7.9 / 11.8, 0.5
         6.7 / 8.0), 0 for the learned ones, whose candidates outside the right image have a neutral cost (a pixel
         whose match is out of reach picks one of them and is unknown by itself). See ``effective_border_reach``.
+    border_check : bool
+        Keep the left-border pixels that ``border_reach`` would set unknown where the right image's own match
+        confirms them: the strip is matched again mirrored (the right image as the left one, where those places have
+        the whole range) and each border pixel whose winner lands on a right pixel of the same disparity (within
+        ``lr_check``; no check, no confirmation) stays measured (``matching.border``). Costs a match of a strip about
+        1.5 ``num_disparities`` wide. Default False. See docs/matching.md, "The left border".
     fill_holes : bool
         Fill unknown pixels from the background side of each row, then a 3x3 median
         (dense output, not a measurement: ``DisparityMap.filled_disparity`` holds them, ``DisparityMap.filled``
@@ -340,6 +346,9 @@ class SGMParams:
     border_reach: float | None = dataclasses.field(default=None, metadata={
         "help": "border pixels that can search less than this fraction of the range are unknown (0 = keep all; "
                 "default: 0.5, 0 for a learned cost)", "metavar": "FRACTION"})
+    border_check: bool = dataclasses.field(default=False, metadata={
+        "help": "keep the left-border pixels that the right image's own match of the strip confirms (border_reach "
+                "sets the others unknown)"})
     fill_holes: bool = dataclasses.field(default=True, metadata={
         "help": "fill unknown pixels from the background side of their row (dense map; filled pixels are "
                 "marked and never make a distance); --no-fill-holes leaves them unknown"})
@@ -399,7 +408,7 @@ class SGMParams:
             fail("weak_texture_gain", f"a number between 1 (off) and {MAX_TEXTURE_GAIN}", self.weak_texture_gain)
         normalise("weak_texture_gain", float(self.weak_texture_gain))
         kernels.check_penalties("features" if self.cost in LEARNED_COSTS else self.cost, self.block_size, self.census_window, p1, p2, self.weak_texture_gain)
-        for field in ("adaptive_p2", "p1_vertical_texture", "subpixel", "fill_holes", "right_view"):
+        for field in ("adaptive_p2", "p1_vertical_texture", "subpixel", "fill_holes", "right_view", "border_check"):
             value = getattr(self, field)
             if not isinstance(value, bool):
                 fail(field, "True or False", value)
