@@ -64,7 +64,7 @@ def removal_masks(scene: BenchScene, **overrides: Any) -> tuple[np.ndarray, dict
     kept = np.isfinite(run().disparity)
     has = np.isfinite(raw)
     border = np.zeros_like(has)
-    if params.border_reach > 0:  # columns whose reach is short: the rule the matcher applies
+    if params.effective_border_reach > 0:  # columns whose reach is short: the rule the matcher applies
         from stereo_classic.matching.matcher import _reach, _short_reach
 
         border[:, _short_reach(_reach(raw.shape[1], params), params)] = True

@@ -240,7 +240,7 @@ class FrameChecker:
             d[v0:v1, u0:u1] = look.disparity
         with np.errstate(invalid="ignore"):
             d[d < start] = np.nan
-        d[:, :max(0, math.ceil(start + p.border_reach * p.num_disparities - 1))] = np.nan
+        d[:, :max(0, math.ceil(start + p.effective_border_reach * p.num_disparities - 1))] = np.nan
         return cv2.resize(d * np.float32(2.0), (w, h), interpolation=cv2.INTER_NEAREST)
 
     def order_shares(self, look: DisparityMap) -> tuple[float, float]:

@@ -267,8 +267,8 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
         post += speckle_bytes(height, width) if params.speckle_size > 0 else 0
         post += fill_bytes(height, width) if params.fill_holes else 0
     strip = 0
-    if params.border_check and params.lr_check is not None and params.border_reach > 0:  # the mirrored strip's match
-        columns = min(width, math.ceil(params.border_reach * params.num_disparities))
+    if params.border_check and params.lr_check is not None and params.effective_border_reach > 0:  # the mirrored strip
+        columns = min(width, math.ceil(params.effective_border_reach * params.num_disparities))
         strip_width = min(width, columns + abs(params.min_disparity) + params.num_disparities + STRIP_MARGIN)
         strip = 2 * height * strip_width + estimate_memory(
             (height, strip_width), params.replace(border_check=False, fill_holes=False, border_reach=0.0))
@@ -314,13 +314,13 @@ def _reach(width: int, params: SGMParams) -> np.ndarray:
 
 
 def _short_reach(reach: np.ndarray, params: SGMParams) -> np.ndarray:
-    """(W,) bool: columns whose pixels can search fewer than ``border_reach * num_disparities`` disparities.
+    """(W,) bool: columns whose pixels can search fewer than ``effective_border_reach * num_disparities`` disparities.
 
     At the image borders part of the range maps outside the right image; where most of it does, the true
     match is likely out of reach and the winner of what is left is not a measurement (on the OAK-D scenes
     such pixels came out at d ~ 0, "far away", at the left edge of a room).
     """
-    return (reach > 0) & (reach < params.border_reach * params.num_disparities)
+    return (reach > 0) & (reach < params.effective_border_reach * params.num_disparities)
 
 
 def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None = None,

@@ -23,6 +23,7 @@ from typing import Any
 
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching._kernels.cost import FEATURE_SCALE
+from stereo_classic.matching._kernels.features import FEATURE_OUTSIDE
 
 __all__ = [
     "SGMParams",
@@ -88,8 +89,13 @@ _SAD_P2_PER_PIXEL = 32
 # (the kernels' edge-aware rule, ``adaptive_p2``, always on for learned costs) and, as for every cost, up to
 # ``weak_texture_gain`` times larger on weak texture: 1.15 * 25 and 12.15 * 25, rounded. Measured on the shared
 # scenes (dense bad-2 Middlebury-style / driving) against MC-CNN's flat 2.3 / 24.3 without the edge rule 10.7 / 11.5,
-# with it 6.9 / 10.4; this 7.1 / 9.4 (docs/matching.md, "Learned costs").
+# with it 6.9 / 10.4; this 7.1 / 9.4; with the neutral cost outside the right image (``_kernels.features``) and P1 / 1.5
+# on the paths that cross rows 6.3 / 9.0 on the six Middlebury-style scenes (docs/matching.md, "Learned costs").
 _LEARNED_P1 = round(2.3 / 2 * FEATURE_SCALE)
+# MC-CNN's SGM divides P1 by 1.5 on its vertical paths (``sgm_V``): the P1 of the paths that cross rows.
+_LEARNED_VERTICAL = 1.5
+# border_reach of the classical costs (see the field).
+_BORDER_REACH = 0.5
 _LEARNED_P2 = round(24.3 / 2 * FEATURE_SCALE)
 
 
@@ -201,7 +207,8 @@ class SGMParams:
         sums (census 9x7: at most 1344; census+grad 1323). See ``effective_p1`` / ``effective_p2``.
     p1_vertical : int or None
         P1 of the paths that cross rows (from above; with ``paths`` 4 and 8 also from below and the diagonals).
-        None: ``p1``'s value (the default for ``cost`` when ``p1`` is None).
+        None: ``p1``'s value (the default for ``cost`` when ``p1`` is None); a learned cost: that divided by 1.5
+        (MC-CNN's rule), ``effective_p1_vertical``.
     p1_vertical_texture : bool
         Multiply ``p1_vertical`` by the weak-texture factor, as P1 and P2 are (default True). False: a surface slanted
         in y (a road seen from a car) steps by one disparity every few rows and pays P1 for each step on the paths
@@ -259,14 +266,16 @@ class SGMParams:
         pixels are set unknown; 0 = off. Default 100.
     speckle_range : float
         Largest disparity step inside one speckle region, pixels. Default 2.0.
-    border_reach : float
+    border_reach : float or None
         0 .. 1. Pixels near the image borders can search only the part of the range that maps inside the
         right image; those that can search less than this fraction of ``num_disparities`` are set unknown
         (their true match is likely out of reach: a winner at d ~ 0 reads as "far away"). With
         ``fill_holes`` they are then filled from the background next to them (marked as filled). 0 keeps
-        every pixel with at least one candidate. Default 0.5 (measured on the shared scenes, dense bad-2,
-        Middlebury-style / driving, with the same penalties everywhere: keep all 6.8 / 18.6, 0.5 6.5 / 15.9, 1.0
-        8.2 / 16.8; with the weak-texture penalties: keep all 7.9 / 11.8, 0.5 6.7 / 8.0).
+        every pixel with at least one candidate. None (default): 0.5 for the classical costs (measured on the
+        shared scenes, dense bad-2, Middlebury-style / driving, with the same penalties everywhere: keep all
+        6.8 / 18.6, 0.5 6.5 / 15.9, 1.0 8.2 / 16.8; with the weak-texture penalties: keep all 7.9 / 11.8, 0.5
+        6.7 / 8.0), 0 for the learned ones with ``outside_match`` "neutral", whose candidates outside the right image have a
+        neutral cost (a pixel whose match is out of reach picks one of them and is unknown by itself). See ``effective_border_reach``.
     outside_match : {"neutral", "forbidden"}
         The cost of a disparity whose match falls outside the right image (pixels near the left edge). "neutral"
         (default): what two unrelated census windows cost on average, half the census bits (31 for 9 x 7; a learned
@@ -345,9 +354,9 @@ class SGMParams:
         "help": "remove regions of at most this many pixels, 0 = off", "metavar": "PIXELS"})
     speckle_range: float = dataclasses.field(default=2.0, metadata={
         "help": "largest disparity step inside one speckle region, px", "metavar": "PX"})
-    border_reach: float = dataclasses.field(default=0.5, metadata={
-        "help": "border pixels that can search less than this fraction of the range are unknown (0 = keep all)",
-        "metavar": "FRACTION"})
+    border_reach: float | None = dataclasses.field(default=None, metadata={
+        "help": "border pixels that can search less than this fraction of the range are unknown (0 = keep all; "
+                "default: 0.5, 0 for a learned cost)", "metavar": "FRACTION"})
     outside_match: str = dataclasses.field(default="neutral", metadata={
         "help": "cost of a match outside the right image: neutral (half an unrelated pair's) or forbidden",
         "choices": OUTSIDE_MATCHES})
@@ -435,9 +444,10 @@ class SGMParams:
         if not _is_int(self.speckle_size) or self.speckle_size < 0:
             fail("speckle_size", "a non-negative integer number of pixels (0 = off)", self.speckle_size)
         normalise("speckle_size", int(self.speckle_size))
-        if not _is_real(self.border_reach) or not 0.0 <= self.border_reach <= 1.0:
-            fail("border_reach", "a fraction between 0 and 1", self.border_reach)
-        normalise("border_reach", float(self.border_reach))
+        if self.border_reach is not None:
+            if not _is_real(self.border_reach) or not 0.0 <= self.border_reach <= 1.0:
+                fail("border_reach", "None (by cost) or a fraction between 0 and 1", self.border_reach)
+            normalise("border_reach", float(self.border_reach))
         if not _is_real(self.speckle_range) or not 0 <= self.speckle_range <= MAX_NUM_DISPARITIES:
             fail("speckle_range", "a non-negative number of pixels", self.speckle_range)
         normalise("speckle_range", float(self.speckle_range))
@@ -520,15 +530,29 @@ class SGMParams:
 
     @property
     def effective_p1_vertical(self) -> int:
-        """P1 of the paths that cross rows: ``p1_vertical``, or ``effective_p1`` when it is None."""
-        return self.p1_vertical if self.p1_vertical is not None else self.effective_p1
+        """P1 of the paths that cross rows: ``p1_vertical``, or when it is None ``effective_p1`` (a learned cost:
+        ``effective_p1 / 1.5`` rounded, MC-CNN's own rule for its vertical paths)."""
+        if self.p1_vertical is not None:
+            return self.p1_vertical
+        return round(self.effective_p1 / _LEARNED_VERTICAL) if self.learned else self.effective_p1
+
+    @property
+    def effective_border_reach(self) -> float:
+        """``border_reach``, or when it is None 0.5 for a classical cost and 0 for a learned one (its candidates
+        outside the right image have a neutral cost instead of a forbidding one: ``_kernels.features``)."""
+        if self.border_reach is not None:
+            return self.border_reach
+        return 0.0 if self.learned and self.outside_match == "neutral" else _BORDER_REACH
 
     @property
     def outside_cost(self) -> int | None:
-        """The census costs' cost of a match outside the right image (``outside_match``, in cost units), or None:
-        forbidden (``"forbidden"``, and always for "sad"; a learned cost has its own, ``learned``)."""
-        if self.outside_match != "neutral" or self.cost not in ("census", "census+grad"):
+        """The cost of a match outside the right image (``outside_match``, in cost units), or None: forbidden
+        (``"forbidden"``, and always for "sad"). Census costs: half the census bits; learned costs:
+        ``_kernels.features.FEATURE_OUTSIDE``, half an unrelated pair's cost."""
+        if self.outside_match != "neutral" or self.cost == "sad":
             return None
+        if self.learned:
+            return FEATURE_OUTSIDE
         return (self.census_window[0] * self.census_window[1] - 1) // 2
 
     @property

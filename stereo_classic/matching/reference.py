@@ -52,13 +52,14 @@ def feature_cost_reference(left_features, right_features, *, similarity="dot", m
                            p2=120) -> np.ndarray:
     """(H, W, D) int64 learned cost from (H, C, W) int8 unit features (``learned.FeatureModel.features``):
     ``FEATURE_SCALE * (1 - sum(qL * qR) / FEATURE_QUANT**2)`` (dot) or ``FEATURE_SCALE * sum|qL - qR| / (FEATURE_QUANT
-    * sqrt(C))`` (L1), rounded half up and clipped to [0, 2 * FEATURE_SCALE]; invalid disparities as above."""
-    from stereo_classic.matching._kernels.cost import FEATURE_QUANT, FEATURE_SCALE
+    * sqrt(C))`` (L1), rounded half up and clipped to [0, 2 * FEATURE_SCALE]; a match outside the right image
+    costs ``FEATURE_OUTSIDE`` (``p2`` is not used: kept for the callers)."""
+    from stereo_classic.matching._kernels.features import FEATURE_OUTSIDE, FEATURE_QUANT, FEATURE_SCALE
 
     H, C, W = left_features.shape
     D = num_disparities
     cmax = 2 * FEATURE_SCALE
-    out = np.full((H, W, D), cmax + 2 * p2 + 1, np.int64)
+    out = np.full((H, W, D), FEATURE_OUTSIDE, np.int64)
     fl = left_features.astype(np.int64)
     fr = right_features.astype(np.int64)
     for k in range(D):
@@ -199,7 +200,8 @@ def select_reference(S: np.ndarray, min_disparity: int, *, uniqueness=0.0, lr_ch
     """(disparity, disparity_right) float32 from a complete sum volume, pixel by pixel.
 
     Valid disparities of left pixel x: indices k with 0 <= x - min_disparity - k < W. Winner = first
-    index of the minimum over all k (unknown when it is not a valid one: a neutral outside cost won); uniqueness rejects when some valid k with |k - best| >= 2 has
+    index of the minimum over all k; when it is not valid (a neutral cost of a match outside the image won) the
+    pixel is unknown; uniqueness rejects when some valid k with |k - best| >= 2 has
     S * (1 - uniqueness) < S_best; subpixel: parabola through best - 1, best, best + 1 when both are
     valid and the curvature is positive.
 

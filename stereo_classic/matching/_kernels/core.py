@@ -567,13 +567,13 @@ def sum_volume(left: np.ndarray, right: np.ndarray, *, path_mask: int = ALL_PATH
 
 def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_disparity: int = 0,
                 num_disparities: int = 64, block_size: int = 5, census_window: tuple[int, int] = (9, 7),
-                p2: int = 80, features=None, feature_similarity: str = "dot") -> np.ndarray:
-    """(H, W, D) int16 matching cost, entry [y, x, k] for disparity min_disparity + k.
+                p2: int = 80, features=None, feature_similarity: str = "dot", outside_cost=None) -> np.ndarray:
+    """(H, W, D) int16 matching cost, entry [y, x, k] for disparity min_disparity + k (``outside_cost``: sgm_match's).
 
     Exactly the costs the passes use (``cost.row_cost``, row by row; SAD scaled by ``cost_scale``, which depends on
     p2);
     disparities whose match falls outside the right image hold the invalid cost
-    ``cmax + 2 * p2_scaled + 1``. Not used on the fast path (it allocates the full volume).
+    ``cmax + 2 * p2_scaled + 1`` (learned: ``FEATURE_OUTSIDE``). Not on the fast path (it allocates the full volume).
     """
     if cost not in _KIND:
         raise ValueError(f"`cost` must be one of {sorted(_KIND)}, got {cost!r}")
@@ -585,7 +585,8 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
     settings = CostSettings(kind=kind, min_disparity=int(min_disparity),
                             half_block=block_size // 2 if kind != CENSUS else 0, shift=shift, cmax=cmax,
                             invalid_cost=cmax + 2 * (int(p2) >> shift) + 1, num_disparities=n_disp,
-                            grad_mul=grad_mul(block_size) if cost == "census+grad" else 0)
+                            grad_mul=grad_mul(block_size) if cost == "census+grad" else 0,
+                            outside_cost=-1 if outside_cost is None else min(int(outside_cost) >> shift, cmax))
     settings, channels = with_features(settings, features, feature_similarity, H, W)
     images = _prepare_cost(left, right, cost, census_window, features=features)
     out = np.empty((H, W, D), np.int16)

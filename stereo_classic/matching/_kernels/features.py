@@ -14,7 +14,7 @@ from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
 from stereo_classic.matching._kernels.intrinsics import max16
 
-__all__ = ["FEATURES", "FEATURE_SCALE", "FEATURE_QUANT", "FEATURE_SIMILARITIES", "check_features",
+__all__ = ["FEATURES", "FEATURE_SCALE", "FEATURE_QUANT", "FEATURE_OUTSIDE", "FEATURE_SIMILARITIES", "check_features",
            "feature_cost_terms", "feature_row_cost", "quantise_rows", "with_features"]
 
 _U = np.uint64  # unsigned indices: plain vector loads (as in cost.py)
@@ -29,6 +29,15 @@ FEATURES = 3
 FEATURE_SCALE = 25
 #: int8 features: ``round(FEATURE_QUANT * f)`` of a unit vector's components (|f| <= 1).
 FEATURE_QUANT = 127
+#: The learned cost of a disparity whose match falls outside the right image: half the cost of unrelated features
+#: (``FEATURE_SCALE``, the dot product 0 of two unrelated unit vectors), i.e. the dot product 0.5. Such a candidate
+#: has no evidence for or against it, so it is neither forbidden (the classical costs' ``invalid_cost``) nor
+#: preferred: a real match (measured: a median 3 - 14 at the ground-truth disparity on the shared scenes) beats it,
+#: a non-match (median 24) loses to it, and a path through the left band of the image goes on with its
+#: neighbours' disparity instead of being pushed to the few disparities that map inside (which the left-to-right
+#: path then carries into the image). A winner there is not a measurement (``select.select_row``: unknown). The
+#: padding indices past ``num_disparities`` keep ``invalid_cost``.
+FEATURE_OUTSIDE = FEATURE_SCALE // 2
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -55,8 +64,9 @@ def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow):  # pragma:
     accumulated over the D candidates at once (vectors over k), four channels a sweep of the sums (measured 1.26x
     faster than one). Every product and sum is an integer below 2**24, so float32 holds them exactly and the order
     of the additions does not matter. The cost is
-    ``clip(feature_base + sum * feature_mul, 0, cmax)`` truncated to int16; matches outside the right image and
-    the padding get ``invalid_cost`` as in ``row_cost``.
+    ``clip(feature_base + sum * feature_mul, 0, cmax)`` truncated to int16; matches outside the right image get
+    ``cost.outside_cost`` (``FEATURE_OUTSIDE`` by default, a neutral cost; -1: ``invalid_cost``), the padding
+    ``invalid_cost`` (``floor``) as in ``row_cost``.
     """
     C = lfeat.shape[1]
     W = lfeat.shape[2]
@@ -102,15 +112,15 @@ def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow):  # pragma:
         for k in range(D):
             v = min(max(fbase + facc[k] * fmul, zero), top)
             crow[_U(cb + k)] = max16(np.int16(v), floor[k])
-    cinv = np.int16(cost.invalid_cost)
+    cout = np.int16(cost.outside_cost) if cost.outside_cost >= 0 else np.int16(cost.invalid_cost)
     nd = cost.num_disparities
-    for x in range(W):  # disparities whose match is outside the right image, as in row_cost (cost.valid_range)
+    for x in range(W):  # disparities whose match is outside the right image (cost.valid_range): no evidence
         k_lo, k_hi = max(0, x - dmin - W + 1), min(nd - 1, x - dmin)
         if k_lo > 0 or k_hi < nd - 1:
             cb = x * D
             for k in range(nd):
                 if k < k_lo or k > k_hi:
-                    crow[_U(cb + k)] = cinv
+                    crow[_U(cb + k)] = cout
 
 
 def check_features(features, H: int, W: int) -> tuple[np.ndarray, np.ndarray]:

@@ -92,7 +92,7 @@ def test_real_border_strip_is_more_often_right(shared_data, name):
     scene = scenes[0]
     num = disparity_range(scene)
     params = SGMParams(num_disparities=num, block_size=5, threads=2)
-    columns = int(np.ceil(params.border_reach * num))
+    columns = int(np.ceil(params.effective_border_reach * num))
     gt = scene.gt_disparity[:, :columns]
     known = np.isfinite(gt)
 
