@@ -57,7 +57,7 @@ def test_library_run_writes_what_the_command_writes(tmp_path, pairs):
 def test_resume_skips_finished_frames_and_ctrl_c_is_a_summary(tmp_path, pairs, monkeypatch):
     files, rig = pairs
     out = tmp_path / "o"
-    real_call = pipeline.Localizer.__call__
+    real_call = pipeline.Localizer._rectified
     calls = {"n": 0}
 
     def interrupt_on_second(self, left, right):
@@ -66,11 +66,11 @@ def test_resume_skips_finished_frames_and_ctrl_c_is_a_summary(tmp_path, pairs, m
             raise KeyboardInterrupt
         return real_call(self, left, right)
 
-    monkeypatch.setattr(pipeline.Localizer, "__call__", interrupt_on_second)
+    monkeypatch.setattr(pipeline.Localizer, "_rectified", interrupt_on_second)
     first = run_source(PairSource(files), FrameWriter(out, sequence=True), params_for=_params, rig=rig)
     assert (first.frames, first.interrupted) == (1, True)
     assert not list(out.glob("f1_L*"))
-    monkeypatch.setattr(pipeline.Localizer, "__call__", real_call)
+    monkeypatch.setattr(pipeline.Localizer, "_rectified", real_call)
     again = run_source(PairSource(files), FrameWriter(out, sequence=True, resume=True), params_for=_params, rig=rig)
     assert (again.frames, again.skipped, again.interrupted) == (1, 1, False)
     assert len((out / "objects.jsonl").read_text().splitlines()) == 2
