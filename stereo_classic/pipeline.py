@@ -4,7 +4,9 @@
 ``(left, right)`` gives a :class:`PipelineResult`. With ``concurrent=True`` the detector runs in a second
 thread beside the matcher (onnxruntime and the numba kernels release the GIL). Off by default: measured on
 the KITTI pair on a 2-core machine, 8 interleaved repetitions, sequential 286 ms vs concurrent 301 ms
-(median), since the matcher already keeps both cores busy.
+(median), since the matcher already keeps both cores busy. :meth:`Localizer.submit` is the pipelined call
+(``run`` and ``guide``): the match here, the detector and then the fusion and checks in the worker thread, so
+that a caller overlaps them with the next frame's read and match.
 """
 
 from __future__ import annotations
