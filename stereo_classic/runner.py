@@ -496,17 +496,18 @@ def run_source(source: Source, writer: FrameWriter, *, params_for: Callable[[int
         in frame order, so the output folder is the same byte for byte.
     read_ahead : bool
         Processing here: read (and decode) the next frame in a thread while this one is processed (the images'
-        decoding releases the GIL). Default False: on 2 cores the matcher's two threads keep both busy, and the
-        command's frames/s with and without it, interleaved, did not differ beyond the host's noise (KITTI pair
-        x30: medians 4.74 / 3.86, 5.00 / 6.25, 2.61 / 2.22 frames/s without / with, in three batches of 4-8
-        rounds; the 12 OAK-D scenes, 10 rounds: 8.62 / 8.29). Never for a live camera, whose next frame would wait a frame time before it is processed. The
-        output is the same either way.
+        decoding releases the GIL). Default False: beside the pipeline it gained nothing on 2 idle cores
+        (docs/cli.md, "Output"); the earlier measurements without it (KITTI pair x30: 4.74 / 3.86, 5.00 / 6.25,
+        2.61 / 2.22 frames/s without / with) were taken on a host whose other programs took the second core, where
+        no thread can gain. Never for a live camera, whose next frame would wait a frame time before it is
+        processed. The output is the same either way.
     pipeline : bool
         Processing here: each frame's detection, fusion and checks run in its Localizer's worker thread while the
         next frame is read and matched here (:meth:`FrameProcessor.start`, :meth:`Localizer.submit`); the frames
-        are still handed to the writer one at a time and in order. Default True. The output is the same bytes
-        either way (tested), Ctrl-C, SIGTERM and ``resume`` as without it; ``concurrent`` then changes nothing
-        (the detector is in the worker anyway).
+        are still handed to the writer one at a time and in order. Default True: on 2 idle cores the KITTI pair
+        x30 ran at 7.8-9.4 frames/s against 6.3-7.2 in turn, the 12 OAK-D scenes x3 at 11.2-14.2 against
+        10.4-12.7 (docs/cli.md, "Output"). The output is the same bytes either way (tested), Ctrl-C, SIGTERM and
+        ``resume`` as without it; ``concurrent`` then changes nothing (the detector is in the worker anyway).
 
     Returns
     -------

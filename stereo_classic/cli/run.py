@@ -92,7 +92,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                           "default, does so anyway)")
     run.add_argument("--read-ahead", action=argparse.BooleanOptionalAction, default=None,
                      help="read and decode the next frame in a thread while one is processed (default off: no "
-                          "measurable gain on 2 cores, which the matcher keeps busy; same output either way)")
+                          "measurable gain beside the pipeline on 2 cores; same output either way)")
     run.add_argument("--pipeline", action=argparse.BooleanOptionalAction, default=None,
                      help="detect, localize and check each frame in a worker thread while the next frame is read "
                           "and matched (default on; same output either way)")
