@@ -101,6 +101,8 @@ def sgm_runner(num_disparities: int, threads: int, cost: str, paths: int, worksp
     defaults = sc.SGMParams(cost=cost)  # the matcher's penalties for this cost unless given
     kw.setdefault("p1", defaults.effective_p1)
     kw.setdefault("p2", defaults.effective_p2)
+    kw.setdefault("p1_cross", defaults.effective_p1_vertical)
+    kw.setdefault("cross_texture", defaults.p1_vertical_texture)
 
     stages: list[dict[str, float]] = []
     # buffers kept between calls, like the buffer inside a reused OpenCV StereoSGBM object

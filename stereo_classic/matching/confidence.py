@@ -31,7 +31,7 @@ __all__ = ["confidence_map", "texture_strength", "lr_agreement"]
 
 def texture_strength(left_gray: np.ndarray) -> np.ndarray:
     """(H, W) float32 in 0..1: the window mean of ``|Sobel_x|`` over ``TEXTURE_REFERENCE``, at most 1 (the
-    matcher's weak-texture measure, ``_kernels.cost.weak_texture_scale``, borders replicated)."""
+    matcher's weak-texture measure, ``_kernels.texture.weak_texture_scale``, borders replicated)."""
     if not isinstance(left_gray, np.ndarray) or left_gray.ndim != 2 or left_gray.dtype != np.uint8:
         raise ValueError(f"`left_gray` must be an (H, W) uint8 array, got {type(left_gray).__name__} "
                          f"{getattr(left_gray, 'shape', None)} {getattr(left_gray, 'dtype', None)}")

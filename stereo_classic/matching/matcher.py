@@ -21,6 +21,7 @@ import cv2
 import numpy as np
 
 from stereo_classic.matching import learned
+from stereo_classic.matching.border import STRIP_MARGIN, confirm_left_border, left_border_columns
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching.params import SGMParams
 from stereo_classic.matching.postprocess import _speckle_and_fill, fill_bytes, speckle_bytes, speckle_fill_bytes
@@ -265,7 +266,13 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
     else:
         post += speckle_bytes(height, width) if params.speckle_size > 0 else 0
         post += fill_bytes(height, width) if params.fill_holes else 0
-    return int(core + conversion + post)
+    strip = 0
+    if params.border_check and params.lr_check is not None and params.border_reach > 0:  # the mirrored strip's match
+        columns = min(width, math.ceil(params.border_reach * params.num_disparities))
+        strip_width = min(width, columns + abs(params.min_disparity) + params.num_disparities + STRIP_MARGIN)
+        strip = 2 * height * strip_width + estimate_memory(
+            (height, strip_width), params.replace(border_check=False, fill_holes=False, border_reach=0.0))
+    return int(core + conversion + post + strip)
 
 
 def _check_memory(shape: tuple[int, ...], dtype: Any, params: SGMParams, reserved: int = 0) -> int:
@@ -341,8 +348,9 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         gray_left, gray_right, cost="features" if params.learned else params.cost,
         features=features, feature_similarity=params.feature_similarity, min_disparity=params.min_disparity,
         num_disparities=params.num_disparities, block_size=params.block_size, census_window=params.census_window,
-        p1=params.effective_p1, p2=params.effective_p2, paths=params.paths, adaptive_p2=params.effective_adaptive_p2,
-        weak_texture_gain=params.weak_texture_gain,
+        p1=params.effective_p1, p2=params.effective_p2, p1_cross=params.effective_p1_vertical,
+        cross_texture=params.p1_vertical_texture, outside_cost=params.outside_cost, paths=params.paths,
+        adaptive_p2=params.effective_adaptive_p2, weak_texture_gain=params.weak_texture_gain,
         uniqueness=params.uniqueness / 100.0, lr_check=params.lr_check, subpixel=params.subpixel,
         threads=params.effective_threads,
         lr_mode=params.lr_mode, return_right=params.right_view, workspace=workspace,
@@ -354,10 +362,19 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     reach = _reach(disparity.shape[1], params)
     short = _short_reach(reach, params)
     short_range = 0
+    t_border = time.perf_counter()
     if short.any():  # border pixels that could search too little of the range: not a measurement
         short_range = int(np.count_nonzero(np.isfinite(disparity[:, short])))
         disparity = disparity.copy() if not disparity.flags.writeable else disparity
+        columns = left_border_columns(short) if params.border_check and params.lr_check is not None else 0
+        confirmed = (confirm_left_border(gray_left, gray_right, disparity, columns, params, _match)
+                     if columns else None)
+        kept = disparity[:, :columns][confirmed] if columns else None
         disparity[:, short] = np.nan
+        if columns:  # ... unless the right image's own match says the same (``border_check``)
+            disparity[:, :columns][confirmed] = kept
+            short_range -= int(confirmed.sum())
+    t_border_end = time.perf_counter()
     valid_before = disparity.size - unknown_matcher - short_range
     threads = params.effective_threads
     disparity, filled_mask, valid_after_speckle, filled = _speckle_and_fill(
@@ -372,6 +389,8 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     no_candidate = int((reach == 0).sum()) * disparity.shape[0]  # no disparity of the range fits
     timings = {"prepare": (t1 - t0) * 1e3, **({"features": (t_features - t1) * 1e3} if params.learned else {})}
     timings.update({k: float(v) for k, v in dict(core_timings).items() if not k.startswith("n_")})
+    if params.border_check:
+        timings["border_check"] = (t_border_end - t_border) * 1e3
     timings["postprocess"] = (t3 - t2) * 1e3
     timings["total"] = (t3 - t0) * 1e3
     validity = {
@@ -381,6 +400,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         "no_candidate": no_candidate,
         "failed_lr": int(core_timings["n_failed_lr"]),
         "failed_uniqueness": int(core_timings["n_failed_uniqueness"]),
+        "outside": int(core_timings["n_outside"]),
         "short_range": short_range,
         "speckle_removed": valid_before - valid_after_speckle,
         "filled": filled,

@@ -31,6 +31,7 @@ __all__ = [
     "LEARNED_COSTS",
     "FEATURE_SIMILARITIES",
     "LR_MODES",
+    "OUTSIDE_MATCHES",
     "MAX_BLOCK_SIZE",
     "MAX_NUM_DISPARITIES",
     "MAX_PENALTY",
@@ -54,6 +55,8 @@ FEATURE_SIMILARITIES = ("dot", "l1")
 _FEATURE_INPUTS = ("standardize", "unit", "raw")
 #: ONNX Runtime execution providers (``learned.PROVIDERS``).
 _PROVIDERS = ("cpu", "cuda", "auto")
+#: Costs of a match outside the right image (see SGMParams.outside_match).
+OUTSIDE_MATCHES = ("neutral", "forbidden")
 #: Left-right check variants (see SGMParams.lr_mode).
 LR_MODES = ("full", "opencv")
 #: Largest accepted (odd) SAD window side.
@@ -196,6 +199,15 @@ class SGMParams:
         Units are those of the cost: Hamming bits for census, raw window SAD for "sad" (the kernels
         scale SAD and the penalties together). P2 times ``weak_texture_gain`` is limited by the int16 path
         sums (census 9x7: at most 1344; census+grad 1323). See ``effective_p1`` / ``effective_p2``.
+    p1_vertical : int or None
+        P1 of the paths that cross rows (from above; with ``paths`` 4 and 8 also from below and the diagonals).
+        None: ``p1``'s value (the default for ``cost`` when ``p1`` is None).
+    p1_vertical_texture : bool
+        Multiply ``p1_vertical`` by the weak-texture factor, as P1 and P2 are (default True). False: a surface slanted
+        in y (a road seen from a car) steps by one disparity every few rows and pays P1 for each step on the paths
+        that cross rows only, and does not pay it up to ``weak_texture_gain`` times: driving frames 7.98 -> 7.23
+        dense bad-2, indoor scenes unchanged, but the guide finds the floor of fewer OAK-D scenes (docs/matching.md,
+        "Slanted surfaces"), so it is not the default.
     cost : {"census+grad", "census", "sad"}
         Matching cost. "census+grad" (default): census Hamming distance plus the window mean of the
         absolute x-gradient difference: census is robust to exposure differences and fine structure,
@@ -255,6 +267,19 @@ class SGMParams:
         every pixel with at least one candidate. Default 0.5 (measured on the shared scenes, dense bad-2,
         Middlebury-style / driving, with the same penalties everywhere: keep all 6.8 / 18.6, 0.5 6.5 / 15.9, 1.0
         8.2 / 16.8; with the weak-texture penalties: keep all 7.9 / 11.8, 0.5 6.7 / 8.0).
+    outside_match : {"neutral", "forbidden"}
+        The cost of a disparity whose match falls outside the right image (pixels near the left edge). "neutral"
+        (default): what two unrelated census windows cost on average, half the census bits (31 for 9 x 7; a learned
+        cost: half an unrelated pair's), so that it is neither preferred nor forbidden: a real match beats it, and the
+        paths that cross the left band carry their neighbours' disparity on instead of being pushed to the few
+        disparities that fit; a winner there is unknown. "forbidden": above anything a path can add up, never wins
+        (the rule before issue 35; always for cost "sad"). See docs/matching.md, "The left border".
+    border_check : bool
+        Keep the left-border pixels that ``border_reach`` would set unknown where the right image's own match
+        confirms them: the strip is matched again mirrored (the right image as the left one, where those places have
+        the whole range) and each border pixel whose winner lands on a right pixel of the same disparity (within
+        ``lr_check``; no check, no confirmation) stays measured (``matching.border``). Costs a match of a strip about
+        1.5 ``num_disparities`` wide. Default False. See docs/matching.md, "The left border".
     fill_holes : bool
         Fill unknown pixels from the background side of each row, then a 3x3 median
         (dense output, not a measurement: ``DisparityMap.filled_disparity`` holds them, ``DisparityMap.filled``
@@ -282,6 +307,10 @@ class SGMParams:
         "help": "penalty for a 1 px disparity change (default: by cost)", "metavar": "P1"})
     p2: int | None = dataclasses.field(default=None, metadata={
         "help": "penalty for larger disparity changes, > p1 (default: by cost)", "metavar": "P2"})
+    p1_vertical: int | None = dataclasses.field(default=None, metadata={
+        "help": "P1 of the paths that cross rows (default: P1)", "metavar": "P1"})
+    p1_vertical_texture: bool = dataclasses.field(default=True, metadata={
+        "help": "do not raise the vertical paths' P1 on weak texture (better on roads seen from a car)"})
     cost: str = dataclasses.field(default="census+grad", metadata={
         "help": "matching cost: census+grad (census + x-gradient), census, sad (the paper's), mccnn (the shipped "
                 "learned cost) or features (--feature-model)",
@@ -319,6 +348,12 @@ class SGMParams:
     border_reach: float = dataclasses.field(default=0.5, metadata={
         "help": "border pixels that can search less than this fraction of the range are unknown (0 = keep all)",
         "metavar": "FRACTION"})
+    outside_match: str = dataclasses.field(default="neutral", metadata={
+        "help": "cost of a match outside the right image: neutral (half an unrelated pair's) or forbidden",
+        "choices": OUTSIDE_MATCHES})
+    border_check: bool = dataclasses.field(default=False, metadata={
+        "help": "keep the left-border pixels that the right image's own match of the strip confirms (border_reach "
+                "sets the others unknown)"})
     fill_holes: bool = dataclasses.field(default=True, metadata={
         "help": "fill unknown pixels from the background side of their row (dense map; filled pixels are "
                 "marked and never make a distance); --no-fill-holes leaves them unknown"})
@@ -361,7 +396,7 @@ class SGMParams:
         self._check_learned(fail, normalise)
 
         # penalties
-        for field in ("p1", "p2"):
+        for field in ("p1", "p2", "p1_vertical"):
             value = getattr(self, field)
             if value is not None:
                 if not _is_int(value) or not 0 <= value <= MAX_PENALTY:
@@ -371,12 +406,14 @@ class SGMParams:
         if p2 <= p1:
             note = " (None means the default for this cost)" if self.p1 is None or self.p2 is None else ""
             raise ValueError(f"`p2` must be larger than `p1`, got p1={p1} and p2={p2}{note}")
+        if self.p1_vertical is not None and self.p1_vertical >= p2:
+            raise ValueError(f"`p1_vertical` must be smaller than p2={p2}, got {self.p1_vertical}")
         # the kernels' own, tighter limit on P2: their int16 path sums must not overflow
         if not _is_real(self.weak_texture_gain) or not 1 <= self.weak_texture_gain <= MAX_TEXTURE_GAIN:
             fail("weak_texture_gain", f"a number between 1 (off) and {MAX_TEXTURE_GAIN}", self.weak_texture_gain)
         normalise("weak_texture_gain", float(self.weak_texture_gain))
         kernels.check_penalties("features" if self.cost in LEARNED_COSTS else self.cost, self.block_size, self.census_window, p1, p2, self.weak_texture_gain)
-        for field in ("adaptive_p2", "subpixel", "fill_holes", "right_view"):
+        for field in ("adaptive_p2", "p1_vertical_texture", "subpixel", "fill_holes", "right_view", "border_check"):
             value = getattr(self, field)
             if not isinstance(value, bool):
                 fail(field, "True or False", value)
@@ -389,6 +426,9 @@ class SGMParams:
             if not _is_real(self.lr_check) or not 0 <= self.lr_check < MAX_NUM_DISPARITIES:
                 fail("lr_check", "None (off) or a non-negative number of pixels", self.lr_check)
             normalise("lr_check", float(self.lr_check))
+        if not isinstance(self.outside_match, str) or self.outside_match.lower() not in OUTSIDE_MATCHES:
+            fail("outside_match", f"one of {', '.join(map(repr, OUTSIDE_MATCHES))}", self.outside_match)
+        normalise("outside_match", self.outside_match.lower())
         if not isinstance(self.lr_mode, str) or self.lr_mode.lower() not in LR_MODES:
             fail("lr_mode", f"one of {', '.join(map(repr, LR_MODES))}", self.lr_mode)
         normalise("lr_mode", self.lr_mode.lower())
@@ -477,6 +517,19 @@ class SGMParams:
         if self.cost in LEARNED_COSTS:
             return _LEARNED_P2
         return _CENSUS_P2 if self.cost == "census" else _SAD_P2_PER_PIXEL * self.block_size**2
+
+    @property
+    def effective_p1_vertical(self) -> int:
+        """P1 of the paths that cross rows: ``p1_vertical``, or ``effective_p1`` when it is None."""
+        return self.p1_vertical if self.p1_vertical is not None else self.effective_p1
+
+    @property
+    def outside_cost(self) -> int | None:
+        """The census costs' cost of a match outside the right image (``outside_match``, in cost units), or None:
+        forbidden (``"forbidden"``, and always for "sad"; a learned cost has its own, ``learned``)."""
+        if self.outside_match != "neutral" or self.cost not in ("census", "census+grad"):
+            return None
+        return (self.census_window[0] * self.census_window[1] - 1) // 2
 
     @property
     def effective_threads(self) -> int:

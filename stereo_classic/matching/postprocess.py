@@ -140,7 +140,7 @@ def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: flo
     labels, parent, sizes = _label_regions(disp, lo, hi, max_diff, n_workers, empty)
     W = disp.shape[1]
     scratch = [(empty(f"fill_rows_{t}", (3, W), np.float32), empty(f"fill_kept_{t}", (3, W), np.uint8),
-                empty(f"fill_columns_{t}", (3, W), np.float32)) for t in range(n_workers)]
+                empty(f"fill_columns_{t}", (3, W + 2), np.float32)) for t in range(n_workers)]
     out = np.empty_like(disp)
     holes = np.empty(disp.shape, np.bool_)
     counts = _kernels.run_stripes(bands, n_workers, lambda t, y0, y1: _speckle.apply_and_fill_stripe(

@@ -78,12 +78,13 @@ def feature_cost_reference(left_features, right_features, *, similarity="dot", m
 
 
 def cost_volume_reference(left, right, *, cost="census", min_disparity=0, num_disparities=16, block_size=5,
-                          census_window=(9, 7), p2=120) -> np.ndarray:
-    """(H, W, D) int64 cost, invalid disparities (match outside the right image) = cmax + 2*p2s + 1."""
+                          census_window=(9, 7), p2=120, outside_cost=None) -> np.ndarray:
+    """(H, W, D) int64 cost, invalid disparities (match outside the right image) = cmax + 2*p2s + 1, or
+    ``min(outside_cost >> shift, cmax)`` when given."""
     H, W = left.shape
     D = num_disparities
     shift, cmax = cost_scale(cost, block_size, census_window, p2)
-    cinv = cmax + 2 * (p2 >> shift) + 1
+    cinv = cmax + 2 * (p2 >> shift) + 1 if outside_cost is None else min(int(outside_cost) >> shift, cmax)
     out = np.full((H, W, D), cinv, np.int64)
     if cost == "census":
         cl = census_reference(left, census_window)
@@ -97,7 +98,8 @@ def cost_volume_reference(left, right, *, cost="census", min_disparity=0, num_di
         return out
     if cost == "census+grad":  # census + the window mean of |sobel_L - sobel_R| (no intensity term)
         census = cost_volume_reference(left, right, cost="census", min_disparity=min_disparity,
-                                       num_disparities=num_disparities, census_window=census_window, p2=p2)
+                                       num_disparities=num_disparities, census_window=census_window, p2=p2,
+                                       outside_cost=outside_cost)
         sums = _window_sums(left, right, min_disparity, D, block_size, intensity=False)
         mul = round(1024 / (block_size * block_size))
         return np.where(sums >= 0, census + ((sums * mul) >> 10), out)
@@ -138,16 +140,22 @@ def _window_sums(left, right, min_disparity, D, block_size, *, intensity) -> np.
 
 
 def path_reference(C: np.ndarray, direction: int, p1: int, p2: int, image: np.ndarray | None = None,
-                   scale: np.ndarray | None = None) -> np.ndarray:
+                   scale: np.ndarray | None = None, *, p1_cross: int | None = None,
+                   cross_texture: bool = True) -> np.ndarray:
     """L_r for one direction (index into ``_kernels.core.PATH_STEPS``), int64 (H, W, D).
 
     L(p, d) = C(p, d) + min(L(p-r, d), L(p-r, d-1) + P1, L(p-r, d+1) + P1, min_k L(p-r, k) + P2)
               - min_k L(p-r, k),   and L(p) = C(p) where p - r is outside the image.
-    With ``scale`` ((H, W) sixteenths, ``weak_texture_scale``) the penalties at p are (P * scale(p) + 8) >> 4.
+    A direction that crosses rows (dy != 0) uses ``p1_cross`` (None: ``p1``) as P1.
+    With ``scale`` ((H, W) sixteenths, ``weak_texture_scale``) the penalties at p are (P * scale(p) + 8) >> 4, P1 of
+    a direction that crosses rows only with ``cross_texture``.
     With ``image`` given, P2 is adaptive: max(P1, P2 // (1 + |I(p) - I(p-r)|)) (of p's penalties).
     """
     H, W, D = C.shape
     dx, dy = PATH_STEPS[direction]
+    crosses = dy != 0
+    if crosses and p1_cross is not None:
+        p1 = p1_cross
     L = np.zeros((H, W, D), np.int64)
     ys = range(H) if dy >= 0 else range(H - 1, -1, -1)
     xs = list(range(W)) if dx >= 0 else list(range(W - 1, -1, -1))
@@ -162,7 +170,9 @@ def path_reference(C: np.ndarray, direction: int, p1: int, p2: int, image: np.nd
             mp = prev.min()
             p1e, p2e = p1, p2
             if scale is not None:
-                p1e, p2e = (p1 * int(scale[y, x]) + 8) >> 4, (p2 * int(scale[y, x]) + 8) >> 4
+                p2e = (p2 * int(scale[y, x]) + 8) >> 4
+                if cross_texture or not crosses:
+                    p1e = (p1 * int(scale[y, x]) + 8) >> 4
             if image is not None:
                 p2e = max(p1e, p2e // (1 + abs(int(image[y, x]) - int(image[yp, xp]))))
             best = np.minimum(prev, mp + p2e)
@@ -174,12 +184,13 @@ def path_reference(C: np.ndarray, direction: int, p1: int, p2: int, image: np.nd
 
 
 def sum_reference(C: np.ndarray, path_mask: int, p1: int, p2: int, image: np.ndarray | None = None,
-                  scale: np.ndarray | None = None) -> np.ndarray:
+                  scale: np.ndarray | None = None, *, p1_cross: int | None = None,
+                  cross_texture: bool = True) -> np.ndarray:
     """Sum of path_reference over the directions whose bit is set in path_mask."""
     S = np.zeros(C.shape, np.int64)
     for r in range(8):
         if path_mask >> r & 1:
-            S += path_reference(C, r, p1, p2, image, scale)
+            S += path_reference(C, r, p1, p2, image, scale, p1_cross=p1_cross, cross_texture=cross_texture)
     return S
 
 
@@ -188,7 +199,7 @@ def select_reference(S: np.ndarray, min_disparity: int, *, uniqueness=0.0, lr_ch
     """(disparity, disparity_right) float32 from a complete sum volume, pixel by pixel.
 
     Valid disparities of left pixel x: indices k with 0 <= x - min_disparity - k < W. Winner = first
-    index of the minimum; uniqueness rejects when some valid k with |k - best| >= 2 has
+    index of the minimum over all k (unknown when it is not a valid one: a neutral outside cost won); uniqueness rejects when some valid k with |k - best| >= 2 has
     S * (1 - uniqueness) < S_best; subpixel: parabola through best - 1, best, best + 1 when both are
     valid and the curvature is positive.
 
@@ -218,9 +229,11 @@ def select_reference(S: np.ndarray, min_disparity: int, *, uniqueness=0.0, lr_ch
             valid = [k for k in range(D) if 0 <= x - dmin - k < W]
             if not valid:
                 continue
-            vals = [int(S[y, x, k]) for k in valid]
-            m = min(vals)
-            b = valid[vals.index(m)]
+            every = [int(S[y, x, k]) for k in range(D)]
+            m = min(every)
+            b = every.index(m)
+            if b not in valid:  # the match is outside the right image: not a measurement
+                continue
             if uniqueness > 0:
                 far = [int(S[y, x, k]) for k in valid if abs(k - b) >= 2]
                 if far and float(min(far)) * (1.0 - uniqueness) < float(m):

@@ -7,10 +7,40 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 from stereo_classic.matching.params import SGMParams
 
 __all__ = ["DisparityMap"]
+
+
+@njit(cache=True, nogil=True)
+def _split_filled(disp, filled, measured):  # pragma: no cover - numba
+    """One pass over a C-contiguous map and its filled mask: ``measured`` = ``disp`` with NaN where ``filled``;
+    returns (finite pixels, infinite pixels, filled pixels whose value is NaN, filled pixels). The checks and the
+    copy of ``DisparityMap.__post_init__``, which took five NumPy passes and a masked assignment (0.55 ms at VGA,
+    on the matcher's one thread)."""
+    d = disp.ravel()
+    f = filled.ravel()
+    m = measured.ravel()
+    nan = np.float32(np.nan)
+    zero = np.float32(0.0)
+    n_finite = 0
+    n_inf = 0
+    n_bad = 0
+    n_filled = 0
+    for i in range(d.shape[0]):
+        v = d[i]
+        finite = v - v == zero
+        n_finite += finite
+        n_inf += (not finite) and v == v
+        if f[i]:
+            n_filled += 1
+            n_bad += v != v
+            m[i] = nan
+        else:
+            m[i] = v
+    return n_finite, n_inf, n_bad, n_filled
 
 
 # --------------------------------------------------------------------------------------------------
@@ -35,7 +65,8 @@ class DisparityMap:
     validity : dict[str, int | None]
         Pixel counts: "pixels" (H * W), "valid" (known in ``filled_disparity``: measured + filled), "unknown_matcher"
         (NaN out of the matcher) = "no_candidate" (columns where no disparity of the range lands inside
-        the right image) + "failed_lr" + "failed_uniqueness" (exact counts from the kernels), "short_range"
+        the right image) + "failed_lr" + "failed_uniqueness" + "outside" (won by a match outside the right image at
+        its neutral cost, ``SGMParams.outside_match``) (exact counts from the kernels), "short_range"
         (border pixels set unknown because they could search less than ``border_reach`` of the range),
         "speckle_removed", "filled" (by ``fill_holes``), "border" (pixels in the image bands where the full disparity
         range does not fit, matched with the range that does) and "border_valid".
@@ -62,7 +93,13 @@ class DisparityMap:
         if not isinstance(disp, np.ndarray) or disp.ndim != 2 or disp.dtype != np.float32:
             raise ValueError(f"`disparity` must be a (H, W) float32 array, got "
                              f"{type(disp).__name__} {getattr(disp, 'shape', None)} {getattr(disp, 'dtype', None)}")
-        if np.isinf(disp).any():
+        filled = self.filled
+        fast = (isinstance(filled, np.ndarray) and filled.shape == disp.shape and filled.dtype == np.bool_
+                and disp.flags.c_contiguous and filled.flags.c_contiguous)  # the matcher's maps: one pass
+        if fast:
+            measured = np.empty_like(disp)
+            n_valid, n_inf, n_bad, n_filled = _split_filled(disp, filled, measured)
+        if (n_inf > 0) if fast else np.isinf(disp).any():
             raise ValueError("`disparity` must hold finite values or NaN (unknown), got inf")
         for name, dtype in (("disparity_right", np.float32), ("filled", np.bool_), ("left_gray", np.uint8)):
             arr = getattr(self, name)
@@ -81,21 +118,22 @@ class DisparityMap:
                 for k, v in self.validity.items()):
             raise ValueError(f"`validity` must map names to non-negative pixel counts or None, got {self.validity!r}")
         validity = {k: (None if v is None else int(v)) for k, v in self.validity.items()}
-        n_valid = int(np.count_nonzero(np.isfinite(disp)))
+        if not fast:
+            n_valid = int(np.count_nonzero(np.isfinite(disp)))
         if validity.get("valid", n_valid) != n_valid or validity.get("pixels", disp.size) != disp.size:
             raise ValueError(f"`validity` does not describe `disparity`: it says {validity.get('valid')} valid of "
                              f"{validity.get('pixels')}, the map has {n_valid} of {disp.size}")
         validity["valid"] = n_valid
         validity["pixels"] = int(disp.size)
         object.__setattr__(self, "validity", validity)
-        filled = self.filled
-        if filled is not None and np.count_nonzero(filled & np.isnan(disp)):
+        if (n_bad > 0) if fast else (filled is not None and np.count_nonzero(filled & np.isnan(disp))):
             raise ValueError("`filled` marks pixels whose disparity is unknown (NaN)")
         # Measured by default: the fills move to ``filled_disparity``, ``disparity`` keeps the measured pixels.
         object.__setattr__(self, "_filled_disparity", disp)
-        if filled is not None and filled.any():
-            measured = disp.copy()
-            measured[filled] = np.nan
+        if (n_filled > 0) if fast else (filled is not None and filled.any()):
+            if not fast:
+                measured = disp.copy()
+                measured[filled] = np.nan
             object.__setattr__(self, "disparity", measured)
 
     @property

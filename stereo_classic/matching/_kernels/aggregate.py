@@ -91,6 +91,11 @@ class PassSettings(NamedTuple):
     ----------
     p1, p2 : int
         Penalties in the units of the (scaled) cost.
+    p1_cross : int
+        P1 of the paths that cross rows (vertical and diagonal), same units.
+    cross_texture : bool
+        ``p1_cross`` is multiplied by the pixel's weak-texture factor too (as P1 and P2 always are); False: it is
+        the same at every pixel (``SGMParams.vertical_p1``).
     adaptive_p2 : bool
         P2 / (1 + |I(p) - I(p - r)|), never below P1.
     path_mask : int
@@ -109,6 +114,8 @@ class PassSettings(NamedTuple):
 
     p1: int
     p2: int
+    p1_cross: int
+    cross_texture: bool
     adaptive_p2: bool
     path_mask: int
     uniqueness: float
@@ -178,8 +185,8 @@ class ThreadBuffers(NamedTuple):
         Right view: best sum and its disparity index per right pixel.
     best : (W,) int64
         Winning disparity index per pixel of the row (-1: none).
-    counts : (2,) int64
-        Pixels rejected by uniqueness and by the LR check.
+    counts : (3,) int64
+        Pixels rejected by uniqueness, by the LR check, and won by a match outside the right image.
     claim_cost, claim_k : (W,) int16
         OpenCV-style LR check: cost and disparity index of each right pixel's claim.
     """
@@ -248,11 +255,13 @@ def grad_mul(block_size: int) -> int:
 
 
 def check_penalties(cost: str, block_size: int, census_window: tuple[int, int], p1: int, p2: int,
-                    weak_texture_gain: float = 1.0) -> None:
+                    weak_texture_gain: float = 1.0, p1_cross: int | None = None) -> None:
     """Raise ValueError when the penalties cannot be represented in the int16 sums (P2 at its largest, times the
-    weak-texture gain)."""
+    weak-texture gain), or P1 (or ``p1_cross``, the P1 of the paths that cross rows) exceeds P2."""
     if not (0 <= p1 <= p2):
         raise ValueError(f"penalties must satisfy 0 <= p1 <= p2, got p1={p1}, p2={p2}")
+    if p1_cross is not None and not 0 <= p1_cross <= p2:
+        raise ValueError(f"`p1_cross` must be between 0 and p2={p2}, got {p1_cross}")
     p2_top = largest_p2(p2, weak_texture_gain)
     shift, cmax = cost_scale(cost, block_size, census_window, p2_top)
     p2s = p2_top >> shift
@@ -283,6 +292,15 @@ def _p2_at(limg, y, x, yp, xp, p1, p2, adaptive):  # pragma: no cover - numba
     diff = abs(np.int32(limg[y, x]) - np.int32(limg[yp, xp]))
     q = np.int16(np.int32(p2) // (1 + diff))
     return q if q > p1 else p1
+
+
+@njit(cache=True, nogil=True, inline="always")
+def cross_penalty(p1, scale, textured):  # pragma: no cover - numba
+    """P1 of a path that crosses rows at a pixel, int16: ``p1`` times its ``weak_texture_scale`` (sixteenths) when
+    ``textured``, else ``p1`` as given."""
+    if textured:
+        return np.int16((p1 * np.int32(scale) + 8) >> 4)
+    return np.int16(p1)
 
 
 @njit(cache=True, nogil=True)
@@ -378,6 +396,8 @@ def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cove
     mk3 = minus1 if m4 & 8 else zero
     p1_32 = np.int32(p1)
     p2_32 = np.int32(p2)
+    p1c_32 = np.int32(settings.p1_cross)
+    cross_texture = settings.cross_texture
     pscale = images.penalty_scale
     big = np.int16(_INT16_MAX)
     forward = step > 0
@@ -401,6 +421,7 @@ def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cove
             sb = (row * W + x) * D
             db = sb if keep_sums else x * D
             p1_16, p2_16 = pixel_penalties(p1_32, p2_32, pscale[y, x])  # times its weak-texture factor
+            p1v = cross_penalty(p1c_32, pscale[y, x], cross_texture)  # P1 of the paths that cross rows
             # --- slots: write w, read w + 1 (horizontal: alternate between slots 0 and 1)
             rhs = i & 1
             whs = 1 - rhs
@@ -409,7 +430,7 @@ def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cove
             mv = MV[wvs + 1]
             if adaptive:
                 qh = add16(mh, _p2_at(limg, y, x, y, x - step, p1_16, p2_16, adaptive))
-                qv = add16(mv, _p2_at(limg, y, x, y - step, x, p1_16, p2_16, adaptive))
+                qv = add16(mv, _p2_at(limg, y, x, y - step, x, p1v, p2_16, adaptive))
             else:
                 qh = add16(mh, p2_16)
                 qv = add16(mv, p2_16)
@@ -428,8 +449,8 @@ def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cove
                 ma = MA[was + 1]
                 mb = MB[wbs + 1]
                 if adaptive:
-                    qa = add16(ma, _p2_at(limg, y, x, y - step, x - step, p1_16, p2_16, adaptive))
-                    qb = add16(mb, _p2_at(limg, y, x, y - step, x + step, p1_16, p2_16, adaptive))
+                    qa = add16(ma, _p2_at(limg, y, x, y - step, x - step, p1v, p2_16, adaptive))
+                    qb = add16(mb, _p2_at(limg, y, x, y - step, x + step, p1v, p2_16, adaptive))
                 else:
                     qa = add16(ma, p2_16)
                     qb = add16(mb, p2_16)
@@ -443,9 +464,9 @@ def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cove
                     for k in range(D):
                         c = crow[_U(cb + k)]
                         vh = _lr(PH, rh, c, mh, qh, p1_16, k)
-                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
-                        va = _lr(PA, ra, c, ma, qa, p1_16, k)
-                        vb = _lr(PB, rb, c, mb, qb, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1v, k)
+                        va = _lr(PA, ra, c, ma, qa, p1v, k)
+                        vb = _lr(PB, rb, c, mb, qb, p1v, k)
                         PH[_U(wh + 1 + k)] = vh
                         PV[_U(wv + 1 + k)] = vv
                         PA[_U(wa + 1 + k)] = va
@@ -462,9 +483,9 @@ def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cove
                     for k in range(D):
                         c = crow[_U(cb + k)]
                         vh = _lr(PH, rh, c, mh, qh, p1_16, k)
-                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
-                        va = _lr(PA, ra, c, ma, qa, p1_16, k)
-                        vb = _lr(PB, rb, c, mb, qb, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1v, k)
+                        va = _lr(PA, ra, c, ma, qa, p1v, k)
+                        vb = _lr(PB, rb, c, mb, qb, p1v, k)
                         PH[_U(wh + 1 + k)] = vh
                         PV[_U(wv + 1 + k)] = vv
                         PA[_U(wa + 1 + k)] = va
@@ -497,7 +518,7 @@ def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cove
                     for k in range(D):
                         c = crow[_U(cb + k)]
                         vh = _lr(PH, rh, c, mh, qh, p1_16, k)
-                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1v, k)
                         PH[_U(wh + 1 + k)] = vh
                         PV[_U(wv + 1 + k)] = vv
                         nh = min16(nh, vh)
@@ -509,7 +530,7 @@ def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cove
                     for k in range(D):
                         c = crow[_U(cb + k)]
                         vh = _lr(PH, rh, c, mh, qh, p1_16, k)
-                        vv = _lr(PV, rvb, c, mv, qv, p1_16, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1v, k)
                         PH[_U(wh + 1 + k)] = vh
                         PV[_U(wv + 1 + k)] = vv
                         nh = min16(nh, vh)

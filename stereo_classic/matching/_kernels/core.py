@@ -47,16 +47,11 @@ from stereo_classic.matching._kernels.cost import (
     cost_volume_kernel,
     largest_p2,
     sobel_rows,
-    weak_texture_scale,
 )
 from stereo_classic.matching._kernels.features import FEATURES, check_features, with_features
-from stereo_classic.matching._kernels.rowpass import (
-    RowPassBuffers,
-    StripePlan,
-    row_pass_buffers,
-    row_pass_bytes,
-    three_path_stripe,
-)
+from stereo_classic.matching._kernels.rowpass import (RowPassBuffers, StripePlan, row_pass_buffers, row_pass_bytes,
+                                                     three_path_stripe)
+from stereo_classic.matching._kernels.texture import texture_table, weak_texture_rows
 from stereo_classic.matching._kernels.workers import run_chained, run_stripes, run_tasks
 
 __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume", "check_penalties", "cost_scale",
@@ -168,7 +163,7 @@ def _thread_buffers(H: int, W: int, D: int) -> ThreadBuffers:
         *paths, *minima, crow=np.empty(W * D, np.int16), sums=np.zeros(W * D, np.int16),
         row_min=np.zeros(W, np.int16), k_index=np.arange(D, dtype=np.int16),
         right_sums=np.empty(W + D - 1, np.int16), right_k=np.empty(W + D - 1, np.int16),
-        best=np.empty(W, np.int64), counts=np.zeros(2, np.int64),
+        best=np.empty(W, np.int64), counts=np.zeros(3, np.int64),
         claim_cost=np.empty(W, np.int16), claim_k=np.empty(W, np.int16))
 
 
@@ -309,8 +304,8 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
                   features=None) -> CostImages:
     """The cost's input images of both views: census quarters and / or the x-Sobel channel (with the image itself
     for SAD), made in stripes of rows of both images on ``threads`` workers, into arrays of ``workspace``; and the
-    left image's per-pixel penalty factors (``weak_texture_scale``). ``cost="features"``: ``features`` is the pair
-    (left, right) of (H, C, W) int8 arrays the row cost reads (``learned.FeatureModel.features``)."""
+    left image's penalty factors (``weak_texture_scale``, by the left view's stripes). ``cost="features"``: ``features``
+    is the pair (left, right) of (H, C, W) int8 arrays the row cost reads (``learned.FeatureModel.features``)."""
     H, W = left.shape
     w, h = census_window
     census, sobel = cost in ("census", "census+grad"), cost in ("sad", "census+grad")
@@ -327,26 +322,25 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
         views.append((
             padded(side, img, h // 2, w // 2) if census else None,
             scratch(side + "_code", (H, W, 4), np.uint16) if census else _placeholder(np.uint16, 3),
-            padded(side, img, 1, 1) if sobel else None,
+            padded(side, img, 1, 1) if sobel or side == "left" else None,  # the left one for the penalty factors too
             scratch(side + "_sobel", (H, W), np.int16) if sobel else _placeholder(np.int16, 2),
             # no intensity term but for SAD: the kernels read no intensity image then
             img.astype(np.int16) if cost == "sad" else _placeholder(np.int16, 2)))
 
     scale = scratch("penalty_scale", (H, W), np.uint8)
+    table = texture_table(weak_texture_gain)  # one entry (16) when the gain is 1 or less: no Sobel made
 
     def rows(t: int, task) -> None:
-        side, band = task
-        if band is None:  # the penalty factors: one task of their own, taken first, beside the stripes
-            weak_texture_scale(left, weak_texture_gain, scale, scratch=scratch)
-            return
-        y0, y1 = band
+        side, (y0, y1) = task
         padded_c, code, padded_s, sob, _ = views[side]
         if census:
             census_quarters_rows(padded_c, w // 2, h // 2, y0, y1, code)
         if sobel:
             sobel_rows(padded_s, y0, y1, sob)
+        if side == 0:
+            weak_texture_rows(padded_s, y0, y1, table, scale)
 
-    tasks = [(0, None)] + [(side, band) for side in (0, 1) for band in stripes(H) if census or sobel]
+    tasks = [(side, band) for side in (0, 1) for band in stripes(H) if census or sobel or side == 0]
     run_tasks(tasks, workers_for(threads, len(tasks)), rows)
     (_, lcode, _, lsob, lint), (_, rcode, _, rsob, rint) = views
     feats = check_features(features, H, W) if cost == "features" else ()  # else the placeholders
@@ -356,10 +350,11 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
          path_mask, adaptive_p2, uniqueness, lr_check, subpixel, threads, select=True, keep_sums=False,
          workspace=None, return_right=False, lr_mode="full", scratch_output=False, weak_texture_gain=1.0,
-         features=None, feature_similarity="dot"):
+         features=None, feature_similarity="dot", p1_cross=None, cross_texture=True, outside_cost=None):
     if cost not in _KIND:
         raise ValueError(f"`cost` must be one of {sorted(_KIND)}, got {cost!r}")
-    check_penalties(cost, block_size, census_window, int(p1), int(p2), weak_texture_gain)
+    p1_cross = int(p1) if p1_cross is None else int(p1_cross)
+    check_penalties(cost, block_size, census_window, int(p1), int(p2), weak_texture_gain, p1_cross)
     kind = _KIND[cost]
     H, W = left.shape
     n_disp = int(num_disparities)
@@ -374,7 +369,8 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     p1s, p2s = int(p1) >> shift, int(p2) >> shift
     cost_settings = CostSettings(kind=kind, min_disparity=dmin, half_block=h, shift=shift, cmax=cmax,
                                  invalid_cost=cmax + 2 * (p2_top >> shift) + 1, num_disparities=n_disp,
-                                 grad_mul=grad_mul(block_size) if cost == "census+grad" else 0)
+                                 grad_mul=grad_mul(block_size) if cost == "census+grad" else 0,
+                                 outside_cost=-1 if outside_cost is None else min(int(outside_cost) >> shift, cmax))
     cost_settings, channels = with_features(cost_settings, features, feature_similarity, H, W)
     timings = {}
 
@@ -401,7 +397,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
             workspace.keep(S, bufs, key)
     for cbufs, _ in bufs:
         _set_floor(cbufs, cost_settings)
-    counters = [b[1].counts for b in bufs]  # pixels rejected by uniqueness, by the LR check
+    counters = [b[1].counts for b in bufs]  # pixels rejected by uniqueness, by the LR check, won outside
     for c in counters:
         c[:] = 0
     disp = scratch_allocator(workspace if scratch_output else None)("disparity", (H, W), np.float32)
@@ -411,7 +407,8 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
         raise ValueError(f"`lr_mode` must be 'full' or 'opencv', got {lr_mode!r}")
     lr_claims = lr_check is not None and lr_mode == "opencv"
     right_view = bool(return_right) or (lr_check is not None and not lr_claims)
-    settings = PassSettings(p1=p1s, p2=p2s, adaptive_p2=bool(adaptive_p2), path_mask=int(path_mask),
+    settings = PassSettings(p1=p1s, p2=p2s, p1_cross=p1_cross >> shift, cross_texture=bool(cross_texture),
+                            adaptive_p2=bool(adaptive_p2), path_mask=int(path_mask),
                             uniqueness=float(uniqueness), lr_threshold=lr_thr, lr_claims=bool(lr_claims),
                             subpixel=bool(subpixel), right_view=bool(right_view))
     out = PassOutputs(sums=S.reshape(-1), disparity=disp, disparity_right=dispR)
@@ -456,6 +453,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     timings["aggregate"] = (t2 - t1) * 1e3
     timings["select"] = 0.0  # fused into the second phase of "aggregate"
     timings["n_failed_uniqueness"] = int(sum(int(c[0]) for c in counters))
+    timings["n_outside"] = int(sum(int(c[2]) for c in counters))
     timings["n_failed_lr"] = int(sum(int(c[1]) for c in counters))
     return disp, (dispR if right_view else None), (S[:H, :, :n_disp] if S.ndim == 3 else S), timings
 
@@ -486,7 +484,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
               uniqueness: float = 0.0, lr_check: float | None = 1.0, subpixel: bool = True,
               threads: int = 2, workspace: Workspace | None = None, return_right: bool = False,
               lr_mode: str = "full", scratch_output: bool = False, weak_texture_gain: float = 1.0,
-              features: tuple[np.ndarray, np.ndarray] | None = None, feature_similarity: str = "dot"
+              features: tuple[np.ndarray, np.ndarray] | None = None, feature_similarity: str = "dot",
+              p1_cross: int | None = None, cross_texture: bool = True, outside_cost: int | None = None
               ) -> tuple[np.ndarray, np.ndarray | None, dict[str, float]]:
     """Semi-global matching of a rectified grey pair (inputs already validated by the caller).
 
@@ -499,26 +498,22 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
         census, raw window SAD for "sad" (scaled internally with the cost so the sums fit int16).
     min_disparity, num_disparities : disparity range [min, min + num), d = x_left - x_right.
     p1, p2 : SGM penalties, 0 <= p1 <= p2.
+    p1_cross, cross_texture : P1 of the paths that cross rows (None: p1), and whether the weak-texture factor scales it.
+    outside_cost : cost of a match outside the right image (a winner there is unknown); None: never wins.
     paths : 8, 4 (left, right, top, bottom) or 3 (left, right, top: OpenCV MODE_SGBM_3WAY's directions).
     adaptive_p2 : P2 / (1 + |I(p) - I(p - r)|), never below P1.
-    weak_texture_gain : at most this factor on P1 and P2 at pixels of weak texture (``cost.weak_texture_scale``,
+    weak_texture_gain : at most this factor on P1 and P2 at pixels of weak texture (``texture.weak_texture_scale``,
         in sixteenths; 1 = the same penalties everywhere).
     uniqueness : reject when a disparity more than 1 away has sum * (1 - uniqueness) < best sum.
     lr_check : left-right check threshold in pixels; None = off.
-    lr_mode : "full" (default): reject when |d - d_right(x - d)| > lr_check, d_right being the
-        winner-takes-all of the right view from the same sums (removes more wrong pixels: best
-        before hole filling). "opencv": as OpenCV's StereoSGBM, each right pixel is claimed by the
-        left pixel with the lowest aggregated cost among those whose winner lands on it, and a left
-        pixel is rejected when the claims at x - floor(d) and x - ceil(d) both differ from it by more
-        than lr_check (mostly occlusions: best when unknown pixels count as errors; cheaper).
     subpixel : parabola fit through the best sum and its two neighbours.
+    lr_mode : "full" (default): reject when |d - d_right(x - d)| > lr_check, d_right being the winner-takes-all of
+        the right view from the same sums. "opencv": StereoSGBM's collision check (``SGMParams.lr_mode``).
     threads : worker threads, >= 1: the image is cut into stripes of about STRIPE_ROWS rows (fixed by the
         height alone) that the workers take in turn; the result is the same for every thread count. At most
         one worker per stripe and per usable CPU (``usable_cpus``) runs.
-    workspace : a ``Workspace`` to keep the big buffers between calls on one image size (None:
-        allocate per call).
-    return_right : also return the right-view disparity (computed anyway for lr_mode "full" with the
-        LR check on; otherwise about 5 % more time).
+    workspace : a ``Workspace`` to keep the big buffers between calls on one image size (None: per call).
+    return_right : also return the right-view disparity (computed anyway for the "full" LR check).
     scratch_output : the left disparity may be an array of ``workspace``, overwritten by its next call (for a
         caller that makes a new map of it anyway).
     features, feature_similarity : ``cost="features"``: the int8 unit features of both views, (H, C, W) each
@@ -530,9 +525,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
     disparity_right : (H, W) float32 when computed (return_right, or the "full" LR check), else None: the right view's
         winner-takes-all disparity from the same sums (integer values), NaN where no disparity of
         the range maps inside the left image.
-    timings : ms for "cost" (census transform / prefilter), "aggregate" (both passes including
-        per-pixel costs and the fused selection), "select" (0: fused); plus the pixel counts
-        "n_failed_uniqueness" and "n_failed_lr" (int) that the filters set to NaN.
+    timings : ms for "cost" (census transform / prefilter), "aggregate" (both passes, per-pixel costs and the fused
+        selection), "select" (0: fused); pixel counts "n_failed_uniqueness", "n_failed_lr", "n_outside" (int).
     """
     _note_first_compile(paths)
     for name, img in (("left", left), ("right", right)):
@@ -555,7 +549,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
                                    return_right=return_right, lr_mode=lr_mode,
                                    scratch_output=scratch_output and workspace is not None,
                                    weak_texture_gain=weak_texture_gain, features=features,
-                                   feature_similarity=feature_similarity)
+                                   feature_similarity=feature_similarity, p1_cross=p1_cross,
+                                   cross_texture=cross_texture, outside_cost=outside_cost)
     return disp, dispR, timings
 
 

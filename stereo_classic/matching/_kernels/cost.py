@@ -66,7 +66,6 @@ __all__ = [
     "largest_p2",
     "max_penalty_scale",
     "pixel_penalties",
-    "weak_texture_scale",
 ]
 
 SOBEL_CAP = 31
@@ -153,6 +152,8 @@ class CostSettings(NamedTuple):
     feature_base, feature_mul : float
         ``FEATURES``: the cost is ``clip(feature_base + acc * feature_mul, 0, cmax)`` truncated, ``acc`` the
         channel sum of the int8 products (dot) or absolute differences (L1), exact in float32.
+    outside_cost : int
+        Cost of a match outside the right image when >= 0 (neutral: such a winner is unknown); -1: ``invalid_cost``.
     """
 
     kind: int
@@ -166,6 +167,7 @@ class CostSettings(NamedTuple):
     feature_l1: int = 0
     feature_base: float = 0.0
     feature_mul: float = 0.0
+    outside_cost: int = -1
 
 
 def census_bits(census_window: tuple[int, int]) -> int:
@@ -415,8 +417,8 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     ``images``: a ``CostImages`` with census codes as (H, W, 4) uint16 quarters; ``cost``: a ``CostSettings``;
     ``bufs``: a ``RowCostBuffers``. The SAD / gradient column sums are built from scratch when ``first``, else
     moved on from row ``y - step`` (``step`` +1 or -1: rows must then come in that order). Disparities whose
-    match falls outside the right image get ``invalid_cost``, and so do the padding indices ``k >=
-    cost.num_disparities`` (``crow`` holds ``len(crow) // W`` per pixel).
+    match falls outside the right image get ``outside_cost`` (``invalid_cost`` when it is -1), the padding indices
+    ``k >= cost.num_disparities`` ``invalid_cost`` (``crow`` holds ``len(crow) // W`` per pixel).
     """
     if cost.kind == FEATURES:  # learned features: a cost of their own (``feature_row_cost``)
         feature_row_cost(images.left_features, images.right_features, cost, y, bufs.frev, bufs.facc, bufs.floor,
@@ -440,6 +442,7 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     W = images.left.shape[1]
     D = crow.shape[0] // W
     cinv = np.int16(cost.invalid_cost)
+    cout = np.int16(cost.outside_cost) if cost.outside_cost >= 0 else cinv
     grad = kind != CENSUS  # SAD, or the gradient term of census+grad (no intensity term)
     if grad:
         intensity = kind == SAD
@@ -519,7 +522,7 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
             cb = x * D
             for k in range(nd):
                 if k < k_lo or k > k_hi:
-                    crow[_U(cb + k)] = cinv
+                    crow[_U(cb + k)] = cout
 
 
 @njit(cache=True, nogil=True)
@@ -551,46 +554,3 @@ def pixel_penalties(p1, p2, scale):  # pragma: no cover - numba
     """(P1, P2) of a pixel as int16: the int32 penalties times its ``weak_texture_scale`` (sixteenths), rounded."""
     s = np.int32(scale)
     return np.int16((p1 * s + 8) >> 4), np.int16((p2 * s + 8) >> 4)
-
-
-def _scale_table(top: int) -> np.ndarray:
-    """``weak_texture_scale``'s value for each window sum 0 .. TEXTURE_REFERENCE * n (above: 16), uint8."""
-    n = TEXTURE_WINDOW * TEXTURE_WINDOW
-    sums = np.arange(TEXTURE_REFERENCE * n + 1, dtype=np.int64)
-    # 16 * REF / (sums / n), rounded half up: (32 * REF * n + sums) // (2 * sums); a flat window (sums 0) gets the top
-    table = (32 * TEXTURE_REFERENCE * n + sums) // np.maximum(2 * sums, 1)
-    return np.clip(table, 16, top).astype(np.uint8)
-
-
-_SCALE_TABLES: dict[int, np.ndarray] = {}
-
-
-def weak_texture_scale(left: np.ndarray, gain: float, out: np.ndarray | None = None, *, scratch=None) -> np.ndarray:
-    """(H, W) uint8 penalty factors in sixteenths: ``clip(16 * TEXTURE_REFERENCE / t, 16, max_penalty_scale(gain))``
-    rounded half up, ``t`` the TEXTURE_WINDOW x TEXTURE_WINDOW window mean of ``|Sobel_x(left)|`` (borders
-    replicated), in integer arithmetic through a table (the same numbers on every machine and thread count); all 16
-    when ``gain`` <= 1. ``scratch(name, shape, dtype)`` gives the temporaries (a workspace's: no fresh arrays per
-    call), default new arrays."""
-    import cv2
-
-    if out is None:
-        out = np.empty(left.shape, np.uint8)
-    top = max_penalty_scale(gain)
-    if top <= 16:
-        out[...] = 16
-        return out
-    table = _SCALE_TABLES.get(top)
-    if table is None:
-        table = _SCALE_TABLES[top] = _scale_table(top)
-    if scratch is None:
-        def scratch(name, shape, dtype):
-            return np.empty(shape, dtype)
-    grad = cv2.Sobel(left, cv2.CV_16S, 1, 0, dst=scratch("texture_grad", left.shape, np.int16), ksize=3,
-                     borderType=cv2.BORDER_REPLICATE)
-    np.abs(grad, out=grad)  # at most 4 * 255: the same bits as uint16
-    sums = cv2.boxFilter(grad.view(np.uint16), cv2.CV_32S, (TEXTURE_WINDOW, TEXTURE_WINDOW),
-                         dst=scratch("texture_sums", left.shape, np.int32), normalize=False,
-                         borderType=cv2.BORDER_REPLICATE)
-    np.minimum(sums, table.size - 1, out=sums)  # every larger sum is textured: 16
-    np.take(table, sums, out=out, mode="clip")  # "clip": not buffered (the indices are in range)
-    return out

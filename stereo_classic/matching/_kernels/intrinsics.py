@@ -13,7 +13,7 @@ from numba import types
 from numba.extending import intrinsic
 
 __all__ = ["add16", "sub16", "min16", "max16", "absdiff16", "and16", "shr16", "lshr16", "mulshr16", "mulhi16", "popxor16",
-           "pick16", "eq16"]
+           "pick16", "eq16", "eq_mask32", "cttz64", "MASK_LANES"]
 
 
 def _check_int16(*args: types.Type) -> None:
@@ -186,3 +186,48 @@ def popxor16(typingctx, a, b):
         return builder.call(fn, [builder.xor(args[0], args[1])])
 
     return types.int16(types.uint16, types.uint16), codegen
+
+
+#: Lanes of ``eq_mask32``: one 512-bit vector of int16 (two 256-bit ones where LLVM prefers those).
+MASK_LANES = 32
+
+
+@intrinsic
+def eq_mask32(typingctx, row, start, value):
+    """Bit i set where ``row[start + i] == value``, i in 0 .. 31, as uint64: one vector compare of 32 int16 lanes
+    whose mask is read as an integer (``vpcmpeqw`` into a mask register and ``kmovd``), where a loop that finds
+    the first equal index needs a select and a horizontal reduction. ``row``: a C-contiguous 1-d int16 array; the
+    caller keeps ``start + 32 <= len(row)`` (no bounds check)."""
+    if not (isinstance(row, types.Array) and row.ndim == 1 and row.dtype == types.int16 and row.layout == "C"):
+        raise TypeError(f"eq_mask32 needs a C-contiguous 1-d int16 array, got {row}")
+    if not isinstance(start, types.Integer):
+        raise TypeError(f"eq_mask32 needs an integer start, got {start}")
+    _check_int16(value)
+
+    def codegen(context, builder, signature, args):
+        i16, i32, i64 = ir.IntType(16), ir.IntType(32), ir.IntType(64)
+        ary = context.make_array(signature.args[0])(context, builder, args[0])
+        first = args[1]
+        if first.type.width < 64:
+            first = builder.zext(first, i64) if not signature.args[1].signed else builder.sext(first, i64)
+        vty = ir.VectorType(i16, MASK_LANES)
+        vec = builder.load(builder.bitcast(builder.gep(ary.data, [first]), vty.as_pointer()), align=2)
+        one = builder.insert_element(ir.Constant(vty, ir.Undefined), args[2], ir.Constant(i32, 0))
+        splat = builder.shuffle_vector(one, ir.Constant(vty, ir.Undefined),
+                                       ir.Constant(ir.VectorType(i32, MASK_LANES), [0] * MASK_LANES))
+        mask = builder.bitcast(builder.icmp_signed("==", vec, splat), ir.IntType(MASK_LANES))
+        return builder.zext(mask, i64)
+
+    return types.uint64(row, start, types.int16), codegen
+
+
+@intrinsic
+def cttz64(typingctx, m):
+    """The number of trailing zero bits of a non-zero uint64 (``tzcnt``; undefined for 0)."""
+    if m != types.uint64:
+        raise TypeError(f"cttz64 needs a uint64, got {m}")
+
+    def codegen(context, builder, signature, args):
+        return builder.cttz(args[0], ir.Constant(ir.IntType(1), 1))
+
+    return types.uint64(types.uint64), codegen

@@ -26,7 +26,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr, _p2_at
+from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr, _p2_at, cross_penalty
 from stereo_classic.matching._kernels.cost import (
     NoAliasCompiler,
     pixel_penalties,
@@ -104,8 +104,8 @@ class RowPassBuffers(NamedTuple):
         Right view: best sum and its disparity index per right pixel.
     best : (W,) int64
         Winning disparity index per pixel of the row (-1: none).
-    counts : (2,) int64
-        Pixels rejected by uniqueness and by the LR check.
+    counts : (3,) int64
+        Pixels rejected by uniqueness, by the LR check, and won by a match outside the right image.
     claim_cost, claim_k : (W,) int16
         OpenCV-style LR check: cost and disparity index of each right pixel's claim.
     """
@@ -142,7 +142,7 @@ def row_pass_buffers(H: int, W: int, D: int, warm_rows: int = 0) -> RowPassBuffe
         path_r=ph.reshape(-1).copy(), min_r=np.zeros(2, np.int16),
         row_min=np.empty(W, np.int16), k_index=np.arange(D, dtype=np.int16),
         right_sums=np.empty(W + D - 1, np.int16), right_k=np.empty(W + D - 1, np.int16),
-        best=np.empty(W, np.int64), counts=np.zeros(2, np.int64),
+        best=np.empty(W, np.int64), counts=np.zeros(3, np.int64),
         claim_cost=np.empty(W, np.int16), claim_k=np.empty(W, np.int16))
 
 
@@ -181,6 +181,8 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     W = limg.shape[1]
     p1_32 = np.int32(settings.p1)
     p2_32 = np.int32(settings.p2)
+    p1c_32 = np.int32(settings.p1_cross)
+    cross_texture = settings.cross_texture
     pscale = images.penalty_scale
     adaptive = settings.adaptive_p2
     dmin = cost.min_disparity
@@ -256,15 +258,16 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
                 x = i
                 cb = x * D
                 p1, p2 = pixel_penalties(p1_32, p2_32, pscale[y, x])  # times the pixel's weak-texture factor
+                p1v = cross_penalty(p1c_32, pscale[y, x], cross_texture)  # the top path's P1
                 wvs = x - r + n_rows
                 wv = wvs * E
                 rvb = wv + E
                 mv = MV[wvs + 1]
-                qv = add16(mv, _p2_at(limg, y, x, y - 1, x, p1, p2, adaptive) if adaptive else p2)
+                qv = add16(mv, _p2_at(limg, y, x, y - 1, x, p1v, p2, adaptive) if adaptive else p2)
                 nv = big
                 if warming:
                     for k in range(D):
-                        vv = _lr(PV, rvb, crow[_U(cb + k)], mv, qv, p1, k)
+                        vv = _lr(PV, rvb, crow[_U(cb + k)], mv, qv, p1v, k)
                         PV[_U(wv + 1 + k)] = vv
                         nv = min16(nv, vv)
                 else:
@@ -277,7 +280,7 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
                     nh = big
                     for k in range(D):
                         c = crow[_U(cb + k)]
-                        vv = _lr(PV, rvb, c, mv, qv, p1, k)
+                        vv = _lr(PV, rvb, c, mv, qv, p1v, k)
                         vh = _lr(PH, rh, c, mh, qh, p1, k)
                         PV[_U(wv + 1 + k)] = vv
                         PH[_U(wh + 1 + k)] = vh

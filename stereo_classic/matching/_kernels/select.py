@@ -12,7 +12,7 @@ import numpy as np
 from numba import njit
 
 from stereo_classic.matching._kernels.cost import NoAliasCompiler, valid_range
-from stereo_classic.matching._kernels.intrinsics import eq16, min16, pick16
+from stereo_classic.matching._kernels.intrinsics import MASK_LANES, cttz64, eq_mask32, min16, pick16
 
 __all__ = ["select_row", "right_view_row"]
 
@@ -23,6 +23,25 @@ _ROUNDS = 32
 _U = np.uint64  # unsigned flat indices: no wraparound code, contiguous vector loads
 
 
+@njit(cache=True, nogil=True)
+def first_equal(row, start, n, value):  # pragma: no cover - numba
+    """The first i in 0 .. n - 1 with ``row[start + i] == value`` (``_INT16_MAX`` when there is none): whole blocks of
+    MASK_LANES by a vector compare read as a bit mask and its trailing zeros (``eq_mask32``), the rest one by one.
+    About 1.6 ns a pixel of 64 disparities against 6.3 for the select-and-reduce loop it replaces. Not inlined by
+    numba into ``select_row`` (LLVM decides): inlined there, the one-sweep kernel (into which both are compiled) ran
+    about 10 % slower on the OAK-D VGA pair (medians of 9 separate processes alternated: 20.7 against 18.5 ms)."""
+    i0 = 0
+    while i0 + MASK_LANES <= n:
+        m = eq_mask32(row, _U(start + i0), value)
+        if m != _U(0):
+            return i0 + np.int64(cttz64(m))
+        i0 += MASK_LANES
+    for i in range(i0, n):
+        if row[_U(start + i)] == value:
+            return i
+    return _INT16_MAX
+
+
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, right_k, best, counts, claim_cost,
                claim_k, out):  # pragma: no cover - numba
@@ -31,8 +50,9 @@ def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, rig
     right view's winners ``right_k`` (``right_sums`` / ``right_k`` per right pixel q = W - 1 - dmin - x_right:
     the lowest sum landing there and its disparity index, ties to the smallest; made by ``right_view_row``).
 
-    Winner-takes-all (first index of the minimum; disparities whose match is outside the right image always
-    sum higher than the others), uniqueness, parabola subpixel, then the left-right check of the row ("full":
+    Winner-takes-all (first index of the minimum; a winner whose match is outside the right image, which a
+    neutral ``CostSettings.outside_cost`` allows, is unknown and counted in ``counts[2]``),
+    uniqueness, parabola subpixel, then the left-right check of the row ("full":
     against the right view's winner; "opencv": against the claims, ties to the largest x), and the right-view
     disparity.
     """
@@ -68,11 +88,13 @@ def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, rig
             continue
         ns = nsrow[x]
         db = x * D
-        bk16 = big
-        for k in range(D):  # first index of the minimum, in vector selects
-            bk16 = min16(bk16, pick16(eq16(srow[_U(db + k)], ns), kidx[k], big))
-        bk = np.int64(bk16)
+        bk = first_equal(srow, db, D, ns)  # the first index of the minimum
         best[x] = bk
+        if bk < k_lo or bk > k_hi:  # the match is outside the right image (its neutral cost won): not a measurement
+            disp[y, x] = nan
+            best[x] = -1
+            counts[2] += 1
+            continue
         if uniq > 0.0:
             m2 = big
             for k in range(k_lo, bk - 1):

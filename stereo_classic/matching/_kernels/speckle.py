@@ -38,37 +38,68 @@ def _root(parent, i):  # pragma: no cover - numba
 def label_stripe(disp, scale, max_diff, y0, y1, scaled, labels, parent, sizes):  # pragma: no cover - numba
     """Label rows [y0, y1): ``scaled`` = rint(disp * scale) as int16 (float32 arithmetic, ties to even) where
     finite; ``labels`` = a region label (``-1`` where not finite); ``parent`` = every label's root (the smallest
-    label of its region within the stripe); ``sizes`` = each root's pixel count. Labels are ``y0 * W + k``."""
+    label of its region within the stripe); ``sizes`` = each root's pixel count. Labels are ``y0 * W + k``.
+
+    A row goes in runs of pixels joined to their left neighbour, whose region's root is carried along (no root
+    lookup per pixel); a run looks a label of the row above up only where it differs from the one it last joined,
+    and counts its pixels in a register (a count in memory per pixel is a chain of loads and stores on one
+    address)."""
     W = disp.shape[1]
     base = y0 * W
     n = 0
     for y in range(y0, y1):
+        drow = disp[y]
+        srow = scaled[y]
+        lrow = labels[y]
+        above = y > y0
+        urow = labels[y - 1] if above else lrow
+        usrow = scaled[y - 1] if above else srow
+        a = -1  # root of the region of the run the pixel continues (-1: none)
+        seen_up = -1  # the label above that the run last joined
+        count = 0  # pixels of the run not yet added to sizes[counted]
+        counted = 0
+        prev = np.int32(0)
         for x in range(W):
-            v = disp[y, x]
+            v = drow[x]
             if not np.isfinite(v):
-                labels[y, x] = -1
+                if count > 0:
+                    sizes[counted] += count
+                    count = 0
+                lrow[x] = -1
+                a = -1
+                seen_up = -1
                 continue
-            s = np.int16(np.rint(v * scale))
-            scaled[y, x] = s
-            si = np.int32(s)
-            a = -1
-            if x > 0 and labels[y, x - 1] >= 0 and abs(si - np.int32(scaled[y, x - 1])) <= max_diff:
-                a = _root(parent, labels[y, x - 1])
-            if y > y0 and labels[y - 1, x] >= 0 and abs(si - np.int32(scaled[y - 1, x])) <= max_diff:
-                b = _root(parent, labels[y - 1, x])
-                if a < 0:
-                    a = b
-                elif b != a:  # two regions meet: the larger root joins the smaller
-                    lo_r = min(a, b)
-                    parent[max(a, b)] = lo_r
-                    a = lo_r
+            sv = np.int16(np.rint(v * scale))
+            srow[x] = sv
+            si = np.int32(sv)
+            if a >= 0 and abs(si - prev) > max_diff:  # the run ends
+                sizes[counted] += count
+                count = 0
+                a = -1
+                seen_up = -1
+            prev = si
+            if above:
+                u = urow[x]
+                if u >= 0 and u != seen_up and abs(si - np.int32(usrow[x])) <= max_diff:
+                    b = _root(parent, u)
+                    if a < 0:
+                        a = b
+                        counted = b
+                    elif b != a:  # two regions meet: the larger root joins the smaller
+                        lo_r = min(a, b)
+                        parent[max(a, b)] = lo_r
+                        a = lo_r
+                    seen_up = u
             if a < 0:
                 a = base + n
                 parent[a] = a
                 sizes[a] = 0
                 n += 1
-            labels[y, x] = a
-            sizes[a] += 1
+                counted = a
+            lrow[x] = a
+            count += 1
+        if count > 0:
+            sizes[counted] += count
     # every label's parent is smaller than itself: in increasing order, each one's parent is already a root
     for k in range(base, base + n):
         p = parent[k]
@@ -175,7 +206,7 @@ def apply_and_fill_stripe(disp, max_size, y0, y1, labels, parent, sizes, out, ho
     then the 3x3 median (borders replicated) of that row-filled map; where a row without any known pixel is
     among the 3 rows, the row fill itself; in a row without any known pixel, NaN. ``holes`` = the pixels filled.
 
-    ``rows`` (3, W) float32, ``kept_rows`` (3, W) uint8 and ``columns`` (3, W) float32 are this worker's
+    ``rows`` (3, W) float32, ``kept_rows`` (3, W) uint8 and ``columns`` (3, W + 2) float32 are this worker's
     scratch: the row-filled rows y - 1, y, y + 1 in a ring (row r in slot r % 3; a stripe makes its border rows'
     neighbours itself, reading only the labels), and the sorted columns of the three. The median of 3 x 3 values
     is the median of (the largest of the columns' smallest, the median of their medians, the smallest of their
@@ -212,13 +243,18 @@ def apply_and_fill_stripe(disp, max_size, y0, y1, labels, parent, sizes, out, ho
         a, c = rows[sm], rows[sp]
         for x in range(W):
             u, v, w = a[x], b[x], c[x]
-            lo[x] = min(min(u, v), w)
-            hi[x] = max(max(u, v), w)
-            mi[x] = _med3(u, v, w)
-        for x in range(W):
-            xl = max(x - 1, 0)
-            xr = min(x + 1, W - 1)
-            m = _med3(max(max(lo[xl], lo[x]), lo[xr]), _med3(mi[xl], mi[x], mi[xr]), min(min(hi[xl], hi[x]), hi[xr]))
-            out[y, x] = disp[y, x] if kept[x] else m
-            holes[y, x] = not kept[x]
+            lo[x + 1] = min(min(u, v), w)
+            hi[x + 1] = max(max(u, v), w)
+            mi[x + 1] = _med3(u, v, w)
+        lo[0], mi[0], hi[0] = lo[1], mi[1], hi[1]  # borders replicated: column -1 is column 0, column W is W - 1
+        lo[W + 1], mi[W + 1], hi[W + 1] = lo[W], mi[W], hi[W]
+        drow = disp[y]
+        orow = out[y]
+        hrow = holes[y]
+        for x in range(W):  # column x of the image is x + 1 of the sorted thirds: no clamped index, vector loads
+            m = _med3(max(max(lo[x], lo[x + 1]), lo[x + 2]), _med3(mi[x], mi[x + 1], mi[x + 2]),
+                      min(min(hi[x], hi[x + 1]), hi[x + 2]))
+            k = kept[x] != 0
+            orow[x] = drow[x] if k else m
+            hrow[x] = not k
     return n_kept, n_filled

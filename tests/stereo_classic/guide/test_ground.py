@@ -220,8 +220,9 @@ def test_restarts_must_be_a_positive_integer():
 
 def test_real_corridor_ground_does_not_depend_on_the_draw(shared_data):
     """The OAK-D corridor shows a strip of floor beside a stairwell, and one search's ground depends on its
-    draw (seeds 0-7: 0.47 to 1.83 m); the consensus of five searches is the same plane, or unknown, for every
-    seed (python -m benchmarks.guide_ground --seeds 8)."""
+    draw (seeds 0-7: 0.5 to 1.72 m); the consensus of five searches is the same plane, or unknown, for every
+    seed (python -m benchmarks.guide_ground --seeds 8: known for 2 of the 8 seeds since issue 35's neutral cost of a
+    match outside the right image, 5 before)."""
     import calib
     from stereo_classic.guide.core import frame_points
     from stereo_classic.guide.ground import agree
@@ -239,7 +240,7 @@ def test_real_corridor_ground_does_not_depend_on_the_draw(shared_data):
     assert not all(agree(f, g) for f in single for g in single)       # the premise: one search is not enough
     fits = [fit_ground(points, fb, rng=seed) for seed in range(8)]
     known = [f for f in fits if f is not None]
-    assert len(known) >= 4 and all(agree(f, g) for f in known for g in known)
+    assert len(known) >= 2 and all(agree(f, g) for f in known for g in known)
     assert all(1.2 < f.height_m < 1.6 for f in known)               # held at chest height, not a railing's plane
 
 

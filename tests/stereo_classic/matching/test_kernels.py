@@ -159,7 +159,8 @@ def _weak_texture_pair(seed: int, h: int = 12, w: int = 30, shift: int = 3):
 
 
 def test_weak_texture_scale_is_the_documented_integer_formula():
-    from stereo_classic.matching._kernels.cost import TEXTURE_REFERENCE, TEXTURE_WINDOW, weak_texture_scale
+    from stereo_classic.matching._kernels.cost import TEXTURE_REFERENCE, TEXTURE_WINDOW
+    from stereo_classic.matching._kernels.texture import weak_texture_scale
 
     left, _ = _weak_texture_pair(3, h=20, w=40)
     got = weak_texture_scale(left, 4.0)
@@ -177,6 +178,44 @@ def test_weak_texture_scale_is_the_documented_integer_formula():
     assert weak_texture_scale(np.full((8, 9), 7, np.uint8), 2.5).tolist() == [[40] * 9] * 8  # flat: the gain
 
 
+@pytest.mark.parametrize("h, w", [(1, 1), (3, 2), (6, 7), (37, 53)])
+def test_weak_texture_rows_in_any_stripes_are_the_whole_image(h, w):
+    """The weak-texture factors made stripe by stripe (as ``_prepare_cost``'s workers make them) equal the whole
+    image's, which the test above checks against the formula, for every cut, images smaller than the window too."""
+    import cv2
+
+    from stereo_classic.matching._kernels.texture import texture_table, weak_texture_rows, weak_texture_scale
+
+    rng = np.random.default_rng(h * 100 + w)
+    left = rng.integers(0, 256, (h, w), dtype=np.uint8)
+    left[:, : w // 2] //= 32  # weak texture on the left half
+    whole = weak_texture_scale(left, 4.0)
+    padded = cv2.copyMakeBorder(left, 1, 1, 1, 1, cv2.BORDER_REPLICATE)
+    for _ in range(4):
+        cuts = sorted({0, h, *rng.integers(0, h + 1, 3).tolist()})
+        got = np.zeros_like(left)
+        for y0, y1 in zip(cuts[:-1], cuts[1:]):
+            weak_texture_rows(padded, y0, y1, texture_table(4.0), got)
+        np.testing.assert_array_equal(got, whole)
+    assert texture_table(1.0).tolist() == [16]  # gain 1: 16 everywhere
+
+
+def test_first_equal_is_the_first_index_of_a_value():
+    """``select.first_equal`` (whole blocks of 32 lanes by a vector compare read as a mask, then one by one) is the
+    first index of the value, in rows of any length, and _INT16_MAX where the value is absent."""
+    from stereo_classic.matching._kernels.select import _INT16_MAX, first_equal
+
+    rng = np.random.default_rng(5)
+    for n in (1, 5, 31, 32, 33, 64, 95, 128, 160):
+        for _ in range(30):
+            row = rng.integers(0, 6, 3 * n + 7).astype(np.int16)
+            start = int(rng.integers(0, 2 * n + 8))
+            value = np.int16(rng.integers(0, 7))
+            hits = np.flatnonzero(row[start:start + n] == value)
+            want = int(hits[0]) if hits.size else _INT16_MAX
+            assert first_equal(row, start, n, value) == want
+
+
 @pytest.mark.parametrize("cost, paths, adaptive", [("census+grad", 3, False), ("census+grad", 8, False),
                                                     ("sad", 3, True), ("census", 4, True), ("sad", 8, False)])
 @pytest.mark.parametrize("threads", [1, 2])
@@ -184,7 +223,7 @@ def test_weak_texture_penalties_match_reference(cost, paths, adaptive, threads):
     """Both kernels (one sweep for 3 paths, two passes for 4 and 8) with per-pixel penalties: P1 and P2 times the
     pixel's weak-texture factor, against the reference given the same factors; the SAD cost's scaling leaves room
     for the largest P2."""
-    from stereo_classic.matching._kernels.cost import weak_texture_scale
+    from stereo_classic.matching._kernels.texture import weak_texture_scale
 
     left, right = _weak_texture_pair(41)
     scale = weak_texture_scale(left, 4.0)
@@ -200,6 +239,74 @@ def test_weak_texture_penalties_match_reference(cost, paths, adaptive, threads):
     np.testing.assert_array_equal(got, want)
     plain = ref.sum_reference(C, mask, p1 >> shift, p2 >> shift, image=left if adaptive else None)
     assert not np.array_equal(got, plain)  # the factors changed the sums
+
+
+@pytest.mark.parametrize("cost, paths, adaptive, p1_cross, cross_texture", [
+    ("census+grad", 3, False, 28, False), ("census+grad", 8, False, 28, False), ("census+grad", 3, True, 19, False),
+    ("sad", 4, True, 90, False), ("census", 8, False, 13, True), ("census+grad", 3, False, 60, True)])
+@pytest.mark.parametrize("threads", [1, 2])
+def test_cross_row_p1_matches_reference(cost, paths, adaptive, p1_cross, cross_texture, threads):
+    """Both kernels with a P1 of their own on the paths that cross rows (vertical and diagonal), with or without the
+    weak-texture factor, against the reference; the horizontal paths keep P1 times the factor."""
+    from stereo_classic.matching._kernels.texture import weak_texture_scale
+
+    left, right = _weak_texture_pair(43)
+    scale = weak_texture_scale(left, 4.0)
+    p1, p2 = (28, 112) if cost != "sad" else (200, 800)
+    kw = dict(cost=cost, min_disparity=-1, num_disparities=9, block_size=5, census_window=(9, 7))
+    shift, _ = core.cost_scale(cost, 5, (9, 7), (p2 * 64 + 8) >> 4)
+    C = ref.cost_volume_reference(left, right, p2=(p2 * 64 + 8) >> 4, **kw)
+    mask = core.PATH_MASKS[paths]
+    image = left if adaptive else None
+    want = ref.sum_reference(C, mask, p1 >> shift, p2 >> shift, image=image, scale=scale,
+                             p1_cross=p1_cross >> shift, cross_texture=cross_texture)
+    got = core.sum_volume(left, right, path_mask=mask, threads=threads, p1=p1, p2=p2, adaptive_p2=adaptive,
+                          weak_texture_gain=4.0, p1_cross=p1_cross, cross_texture=cross_texture, **kw)
+    np.testing.assert_array_equal(got, want)
+    same = ref.sum_reference(C, mask, p1 >> shift, p2 >> shift, image=image, scale=scale)
+    assert not np.array_equal(got, same)  # the rows-crossing P1 changed the sums
+
+
+@pytest.mark.parametrize("cost, paths", [("census+grad", 3), ("census", 8), ("census+grad", 4)])
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("dmin", [0, -2])
+def test_neutral_outside_cost_matches_reference(cost, paths, threads, dmin):
+    """A match outside the right image at a neutral cost (``outside_cost``): the sums of both kernels against the
+    reference given that cost, and the disparity: a winner outside the right image is unknown."""
+    left, right = _pair(45, h=10, w=30, shift=3)
+    kw = dict(cost=cost, min_disparity=dmin, num_disparities=12, block_size=5, census_window=(9, 7))
+    C = ref.cost_volume_reference(left, right, p2=112, outside_cost=31, **kw)
+    mask = core.PATH_MASKS[paths]
+    want = ref.sum_reference(C, mask, 28, 112)
+    got = core.sum_volume(left, right, path_mask=mask, threads=threads, p1=28, p2=112, outside_cost=31, **kw)
+    np.testing.assert_array_equal(got, want)
+    forbidden = core.sum_volume(left, right, path_mask=mask, threads=threads, p1=28, p2=112, **kw)
+    assert not np.array_equal(got, forbidden)
+    d, _, _ = core.sgm_match(left, right, paths=paths, threads=threads, p1=28, p2=112, outside_cost=31, **kw)
+    d_ref, _ = ref.select_reference(want, dmin, lr_check=1.0)
+    np.testing.assert_array_equal(np.isnan(d), np.isnan(d_ref))
+    np.testing.assert_allclose(d[np.isfinite(d)], d_ref[np.isfinite(d_ref)], atol=1e-5)
+
+
+def test_a_winner_outside_the_right_image_is_unknown():
+    """A left band whose own candidates all cost the most (their match is noise) and a neutral outside cost: the
+    winners there lie outside the right image and are unknown, never a disparity that merely fits."""
+    rng = np.random.default_rng(46)
+    right = rng.integers(0, 256, (12, 40), dtype=np.uint8)
+    left = np.roll(right, 9, axis=1)
+    left[:, :9] = rng.integers(0, 256, (12, 9), dtype=np.uint8)  # seen by the left camera only (true d = 9)
+    kw = dict(cost="census+grad", num_disparities=16, p1=28, p2=112, paths=3, lr_check=None, threads=1)
+    neutral, _, _ = core.sgm_match(np.ascontiguousarray(left), right, outside_cost=31, **kw)
+    forbidden, _, _ = core.sgm_match(np.ascontiguousarray(left), right, **kw)
+    assert np.isfinite(forbidden[:, :6]).all()  # forced to a disparity that fits
+    assert np.isnan(neutral[:, :6]).mean() > 0.8
+    np.testing.assert_array_equal(neutral[:, 24:], forbidden[:, 24:])  # the paths settle away from the band
+
+
+def test_cross_row_p1_is_bounded_by_p2():
+    left, right = _pair(44)
+    with pytest.raises(ValueError, match="p1_cross"):
+        core.sum_volume(left, right, path_mask=core.THREE_PATHS, p1=20, p2=80, p1_cross=81)
 
 
 def test_weak_texture_gain_is_bounded_by_the_int16_sums():

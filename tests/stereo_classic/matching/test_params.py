@@ -57,7 +57,8 @@ class TestParams:
         ("num_disparities", 0), ("num_disparities", -16), ("num_disparities", 16.0), ("num_disparities", True),
         ("num_disparities", 10**6),
         ("block_size", 4), ("block_size", 0), ("block_size", 23), ("block_size", 5.0),
-        ("p1", -1), ("p1", 2.5), ("p2", 10**6),
+        ("p1", -1), ("p1", 2.5), ("p2", 10**6), ("p1_vertical", -1), ("p1_vertical", 3.5), ("p1_vertical", 112),
+        ("p1_vertical_texture", 0), ("outside_match", "free"), ("outside_match", None),
         ("cost", "ssd"), ("cost", None),
         ("census_window", (9, 9)), ("census_window", (8, 7)), ("census_window", 9), ("census_window", (9, 7, 1)),
         ("adaptive_p2", 1), ("subpixel", "yes"), ("fill_holes", None),
@@ -80,6 +81,12 @@ class TestParams:
         with pytest.raises(ValueError, match="weak_texture_gain"):
             SGMParams(cost="census", p2=337)
         assert SGMParams(cost="census", p2=1343, weak_texture_gain=1).p2 == 1343  # without the factor
+
+    def test_p1_vertical_defaults_to_p1_and_the_old_rule(self):
+        p = SGMParams()
+        assert (p.effective_p1_vertical, p.p1_vertical_texture) == (p.effective_p1, True)
+        assert SGMParams(p1=10, p2=50).effective_p1_vertical == 10
+        assert SGMParams(p1_vertical=40).effective_p1_vertical == 40
 
     @pytest.mark.parametrize("kwargs", [dict(p1=80, p2=80), dict(p1=120), dict(cost="sad", p2=10)])
     def test_p2_must_exceed_p1(self, kwargs):
@@ -113,7 +120,8 @@ class TestParams:
 # --------------------------------------------------------------------------------------------------
 _FLAG_FIELDS = {"min_disparity", "num_disparities", "cost", "block_size", "census_window", "p1", "p2", "uniqueness",
                 "lr_check", "lr_mode", "speckle_size", "speckle_range", "paths", "adaptive_p2", "subpixel",
-                "fill_holes", "border_reach", "weak_texture_gain",
+                "fill_holes", "border_reach", "border_check", "outside_match", "weak_texture_gain", "p1_vertical",
+                "p1_vertical_texture",
                 "feature_model", "feature_input", "feature_similarity", "onnx_provider"}
 
 

@@ -40,3 +40,25 @@ def test_bad_arrays_are_named(name, value):
     args = {"disparity": np.zeros((3, 4), np.float32), "disparity_right": None, "params": SGMParams(), name: value}
     with pytest.raises(ValueError, match=f"`{name}`"):
         DisparityMap(**args)
+
+
+@pytest.mark.parametrize("order", ["C", "F"])
+def test_one_pass_and_numpy_checks_agree(order):
+    """C-contiguous maps (the matcher's) are checked and split in one numba pass, others by NumPy: the same
+    measured map bit for bit, the same counts and the same errors."""
+    rng = np.random.default_rng(3)
+    d = rng.uniform(0, 60, (17, 23)).astype(np.float32)
+    d[rng.random(d.shape) < 0.2] = np.nan
+    filled = (rng.random(d.shape) < 0.3) & np.isfinite(d)
+    d, filled = np.asarray(d, order=order), np.asarray(filled, order=order)
+    m = DisparityMap(d, None, SGMParams(), filled=filled)
+    want = np.where(filled, np.float32(np.nan), d)
+    assert m.disparity.tobytes() == np.ascontiguousarray(want).tobytes() and m.filled_disparity is d
+    assert m.validity["valid"] == int(np.isfinite(d).sum())
+    for bad, match in ((np.inf, "inf"), (np.nan, "`filled` marks")):
+        e = d.copy(order=order)
+        e[np.argwhere(filled)[0][0], np.argwhere(filled)[0][1]] = bad
+        with pytest.raises(ValueError, match=match):
+            DisparityMap(e, None, SGMParams(), filled=filled)
+    with pytest.raises(ValueError, match="does not describe"):
+        DisparityMap(d, None, SGMParams(), filled=filled, validity={"valid": 1})
