@@ -352,10 +352,11 @@ class FrameChecker:
             ys += [box[1], box[3]]
         if frame_share >= SATURATION_WARN:
             with np.errstate(invalid="ignore"):
-                rows, cols = np.nonzero(disp >= top - 1.0)
+                piled = disp >= top - 1.0
+            rows, cols = np.flatnonzero(piled.any(axis=1)), np.flatnonzero(piled.any(axis=0))  # their extent
             if rows.size:
-                xs += [cols.min(), cols.max() + 1]
-                ys += [rows.min(), rows.max() + 1]
+                xs += [cols[0], cols[-1] + 1]
+                ys += [rows[0], rows[-1] + 1]
         if not xs:
             return 0, 0, w, h
         reach = max(0, self.params.min_disparity) + 2 * self.params.num_disparities  # the look's end, full-size px
@@ -382,8 +383,9 @@ class FrameChecker:
 def _needed(disp: np.ndarray, wide: np.ndarray, top: float) -> float | None:
     """The disparity (px) the pixels piled at the end of the range have in the half-size look (95th percentile);
     inf when that look is at its own end too, None when too few of them are known there."""
-    piled = np.isfinite(disp) & (disp >= top - 1.0)
-    reach = wide[piled & np.isfinite(wide)]
+    with np.errstate(invalid="ignore"):
+        reach = wide[disp >= top - 1.0]  # the piled pixels (NaN is never piled)
+    reach = reach[np.isfinite(reach)]
     if reach.size < 20:
         return None
     needed = float(np.percentile(reach, 95))

@@ -4,7 +4,9 @@
 ``(left, right)`` gives a :class:`PipelineResult`. With ``concurrent=True`` the detector runs in a second
 thread beside the matcher (onnxruntime and the numba kernels release the GIL). Off by default: measured on
 the KITTI pair on a 2-core machine, 8 interleaved repetitions, sequential 286 ms vs concurrent 301 ms
-(median), since the matcher already keeps both cores busy.
+(median), since the matcher already keeps both cores busy. :meth:`Localizer.submit` is the pipelined call
+(``run`` and ``guide``): the match here, the detector and then the fusion and checks in the worker thread, so
+that a caller overlaps them with the next frame's read and match.
 """
 
 from __future__ import annotations
@@ -13,8 +15,8 @@ import logging
 import math
 import os
 import time
-from collections.abc import Iterable, Mapping
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable, Iterable, Mapping
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -185,12 +187,13 @@ class Localizer:
     def __exit__(self, *exc: Any) -> None:
         self.close()
 
-    def _detect(self, image: np.ndarray) -> tuple[Any, float]:
-        t0 = time.perf_counter()
+    def _detect(self, image: np.ndarray) -> tuple[Any, float, float]:
+        """Detections, wall ms and this thread's CPU ms."""
+        t0, c0 = time.perf_counter(), time.thread_time()
         dets = self.detector.detect(image)
         if self.classes is not None:
             dets = dets.only(*self.classes)
-        return dets, (time.perf_counter() - t0) * 1e3
+        return dets, (time.perf_counter() - t0) * 1e3, (time.thread_time() - c0) * 1e3
 
     def _check_size(self, left: np.ndarray, right: np.ndarray) -> None:
         """StereoInputError naming the parameter (`left`, `right`, `rig`) when the sizes do not fit."""
@@ -212,16 +215,11 @@ class Localizer:
     def __call__(self, left: np.ndarray, right: np.ndarray) -> PipelineResult:
         """Run the pipeline on one pair (raw when the rig has rectification maps, else rectified)."""
         t0, c0 = time.perf_counter(), time.process_time()
-        self._check_size(left, right)
-        # Raw pairs are rectified; the vertical-offset check (feature matching) runs on the first frame only.
-        left, right = self.rig.rectify_pair(left, right, check_offset=self._first and self.rig.has_maps)
-        self._first = False
+        left, right = self._rectified(left, right)
         t1, c1 = time.perf_counter(), time.process_time()
         future = None
         if self.concurrent:
-            if self._pool is None:
-                self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="detector")
-            future = self._pool.submit(self._detect, left)
+            future = self._worker().submit(self._detect, left)
         try:
             t_match = time.perf_counter()
             dmap = self.matcher.compute(left, right)
@@ -232,17 +230,11 @@ class Localizer:
                 future.exception()  # wait: never leave the detector running after a failure
         detections, t_detect = (None, 0.0)
         if future is not None:
-            detections, t_detect = future.result()
+            detections, t_detect, _ = future.result()
         elif self.detector is not None:
-            detections, t_detect = self._detect(left)
+            detections, t_detect, _ = self._detect(left)
         t2, c2 = time.perf_counter(), time.process_time()
-        if detections is not None and len(detections):
-            objects = localize(detections, dmap, self.rig, self.fusion, rng=self.seed,
-                               range_warning=self.checker is None)  # the checks mark them instead
-        else:
-            objects = LocalizedObjects.empty(self.fusion.method)
-        t3, c3 = time.perf_counter(), time.process_time()
-        objects, warnings = self._check(left, right, dmap, objects)
+        objects, warnings, (t3, c3) = self._localize_and_check(left, right, dmap, detections)
         t4, c4 = time.perf_counter(), time.process_time()
         cpu = {"rectify": c1 - c0, "disparity": (c2 if future is not None else c_match) - c1,
                "detect": 0.0 if future is not None else c2 - c_match, "localize": c3 - c2, "checks": c4 - c3,
@@ -252,6 +244,77 @@ class Localizer:
         return PipelineResult(left=left, right=right, disparity=dmap, detections=detections, objects=objects,
                               timings_ms=timings, warnings=warnings,
                               cpu_ms={k: v * 1e3 for k, v in cpu.items()})
+
+    def submit(self, left: np.ndarray, right: np.ndarray) -> Future:
+        """Start the pipeline on one pair and return a future of its :class:`PipelineResult`, the same as
+        ``self(left, right)`` gives: the pair is checked, rectified and matched here (the call returns when the
+        match is done), while the detector, and after the match the fusion and the frame checks, run in the
+        Localizer's worker thread. A caller that submits the next pair before taking this one's result overlaps
+        this frame's fusion and checks (single-threaded) with the next frame's reading and matching; the worker
+        takes its jobs in order, one at a time, and every frame uses ``rng=seed``, so the results are those of
+        calling the Localizer in turn. Errors of the first part are raised here, the others by ``result()``.
+
+        In the result's ``cpu_ms``, "rectify" and "disparity" are process CPU over the stage (work of the
+        worker thread that ran meanwhile included), "detect", "localize" and "checks" the worker thread's own
+        CPU; "total" is their sum. ``timings_ms["total"]`` is the wall time from this call to the result.
+        """
+        t0, c0 = time.perf_counter(), time.process_time()
+        left, right = self._rectified(left, right)
+        t1, c1 = time.perf_counter(), time.process_time()
+        worker = self._worker()
+        detected = worker.submit(self._detect, left) if self.detector is not None else None
+        try:
+            dmap = self.matcher.compute(left, right)
+        except BaseException:
+            if detected is not None and not detected.cancel():
+                detected.exception()  # wait: never leave the detector running after a failure
+            raise
+        t2, c2 = time.perf_counter(), time.process_time()
+        stamps = {"rectify": ((t1 - t0) * 1e3, (c1 - c0) * 1e3), "disparity": ((t2 - t1) * 1e3, (c2 - c1) * 1e3)}
+        return worker.submit(self._finish, left, right, dmap, detected, stamps, t0)
+
+    def _finish(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap, detected: Future | None,
+                stamps: dict[str, tuple[float, float]], t0: float) -> PipelineResult:
+        """The worker's part of :meth:`submit` after the match: fusion and checks, and the result."""
+        detections, t_detect, c_detect = (None, 0.0, 0.0) if detected is None else detected.result()
+        t2, c2 = time.perf_counter(), time.thread_time()
+        objects, warnings, (t3, c3) = self._localize_and_check(left, right, dmap, detections, time.thread_time)
+        t4, c4 = time.perf_counter(), time.thread_time()
+        timings = {k: w for k, (w, _) in stamps.items()}
+        cpu = {k: c for k, (_, c) in stamps.items()}
+        timings.update({"detect": t_detect, "localize": (t3 - t2) * 1e3, "checks": (t4 - t3) * 1e3,
+                        "total": (t4 - t0) * 1e3})
+        cpu.update({"detect": c_detect, "localize": (c3 - c2) * 1e3, "checks": (c4 - c3) * 1e3})
+        cpu["total"] = sum(cpu.values())
+        timings = {k: timings[k] for k in STAGES}
+        return PipelineResult(left=left, right=right, disparity=dmap, detections=detections, objects=objects,
+                              timings_ms=timings, warnings=warnings, cpu_ms={k: cpu[k] for k in STAGES})
+
+    def _rectified(self, left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The pair checked against the rig and rectified (raw pairs; the vertical-offset check, by feature
+        matching, on the first frame only)."""
+        self._check_size(left, right)
+        left, right = self.rig.rectify_pair(left, right, check_offset=self._first and self.rig.has_maps)
+        self._first = False
+        return left, right
+
+    def _worker(self) -> ThreadPoolExecutor:
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="localizer")
+        return self._pool
+
+    def _localize_and_check(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap,
+                            detections: Detections | None, clock: Callable[[], float] = time.process_time
+                            ) -> tuple[LocalizedObjects, tuple[FrameWarning, ...], tuple[float, float]]:
+        """The objects (checked) and the warnings of one frame, and (wall, ``clock``) when localize ended."""
+        if detections is not None and len(detections):
+            objects = localize(detections, dmap, self.rig, self.fusion, rng=self.seed,
+                               range_warning=self.checker is None)  # the checks mark them instead
+        else:
+            objects = LocalizedObjects.empty(self.fusion.method)
+        stamp = (time.perf_counter(), clock())
+        objects, warnings = self._check(left, right, dmap, objects)
+        return objects, warnings, stamp
 
     def _check(self, left: np.ndarray, right: np.ndarray, dmap: DisparityMap,
                objects: LocalizedObjects) -> tuple[LocalizedObjects, tuple[FrameWarning, ...]]:

@@ -258,6 +258,12 @@ class FrameProcessor:
         ValueError
             A frame without a calibration, or images that do not fit their rig.
         """
+        loc, frame_rig, original, left, right = self._prepare(frame)
+        return self._output(frame, loc(left, right), frame_rig, original)
+
+    def _prepare(self, frame: Frame) -> tuple[Localizer, RectifiedRig, RectifiedRig, np.ndarray, np.ndarray]:
+        """The frame's Localizer (a new one when the rig changes), its rig as matched, its own rig, and the images
+        as matched (scaled)."""
         frame_rig = original = frame.rig if frame.rig is not None else self.rig
         if frame_rig is None:
             raise ValueError(f"frame {frame.name}: no calibration")
@@ -276,7 +282,10 @@ class FrameProcessor:
         left, right = frame.left, frame.right
         if self.scale != 1.0:
             left, right = scale_pair(left, right, original, frame_rig.image_size)
-        result = loc(left, right)
+        return loc, frame_rig, original, left, right
+
+    def _output(self, frame: Frame, result: PipelineResult, frame_rig: RectifiedRig,
+                original: RectifiedRig) -> FrameOutput:
         record = frame_record(frame.name, frame.index, result, frame_rig, detector=self.detector_name,
                               fusion=self.fusion, seed=self.seed, source=frame.source,
                               original_size=tuple(original.image_size) if self.scale != 1.0 else None)
@@ -286,14 +295,42 @@ class FrameProcessor:
         """Read and process one described frame. A scene without a calibration, and (``on_error="skip"``) a frame
         that fails to read or to process, come back as an output that says so instead of raising. ``read``: what
         gives the frame instead of ``ref.read`` (a read done ahead, raising what the read raised)."""
+        return self.start(ref, read, pipelined=False)()
+
+    def start(self, ref: FrameRef, read: Callable[[], Frame] | None = None, *,
+              pipelined: bool = True) -> Callable[[], FrameOutput]:
+        """Read one described frame and start its processing: it is matched here, and (``pipelined``) its
+        detection, fusion and checks go on in its Localizer's worker thread (:meth:`Localizer.submit`). Returns a
+        function giving the frame's output (waiting for the worker), as :meth:`process_ref` gives it; errors as
+        there, from this call or from that function, whichever part failed."""
         try:
-            return self.process((read or ref.read)())
+            frame = (read or ref.read)()
+            loc, frame_rig, original, left, right = self._prepare(frame)
+            if not pipelined:
+                done = self._output(frame, loc(left, right), frame_rig, original)
+                return lambda: done
+            future = loc.submit(left, right)
         except SceneSkipped as exc:
-            return FrameOutput(ref.index, ref.name, skipped_scene=str(exc))
+            skipped = FrameOutput(ref.index, ref.name, skipped_scene=str(exc))
+            return lambda: skipped
         except (OSError, ValueError) as exc:
-            if self.on_error != "skip":
-                raise
-            return FrameOutput(ref.index, ref.name, error=f"{type(exc).__name__}: {exc}")
+            failed = self._failed(ref, exc)
+            return lambda: failed
+
+        def finish() -> FrameOutput:
+            try:
+                result = future.result()
+            except (OSError, ValueError) as exc:
+                return self._failed(ref, exc)
+            return self._output(frame, result, frame_rig, original)
+
+        return finish
+
+    def _failed(self, ref: FrameRef, exc: Exception) -> FrameOutput:
+        """The output of a frame that failed (``on_error="skip"``); ``exc`` raised again otherwise."""
+        if self.on_error != "skip":
+            raise exc
+        return FrameOutput(ref.index, ref.name, error=f"{type(exc).__name__}: {exc}")
 
     def close(self) -> None:
         if self._current:
@@ -362,27 +399,53 @@ def _read_ahead(refs: Iterable[FrameRef]) -> Iterator[tuple[FrameRef, Callable[[
 
 
 def _run_overlapped(refs: Iterable[FrameRef], processor: FrameProcessor, take: Callable[[FrameOutput], None],
-                    check: Callable[[], None] = lambda: None, read_ahead: bool = False) -> None:
+                    check: Callable[[], None] = lambda: None, read_ahead: bool = False,
+                    pipeline: bool = False) -> None:
     """Process the frames here, one after another, while a writer thread writes the frame before (and, with
     ``read_ahead``, a reader thread reads the frame after: :func:`_read_ahead`).
 
     The files of frame N are encoded and written while frame N + 1 is read and matched, so a frame costs the
     slower of the two, not their sum; frames are still written one at a time and in order (the same bytes as
-    writing them in turn). A write that fails raises here at the next frame or at the end. Ctrl-C or SIGTERM
-    (raised in this, the main thread) waits for the write in progress, so that frame is complete and counted.
+    writing them in turn). With ``pipeline`` frame N's detection, fusion and checks run in the Localizer's worker
+    thread (:meth:`FrameProcessor.start`) while frame N + 1 is read and matched here; its output is taken when
+    frame N + 1's match is done, so the order, and each frame's output, stay those of processing in turn (a
+    frame that fails to start, or Ctrl-C while one starts, hands on the frame before it first, as processing in
+    turn would have written it). A write that fails raises here at the next frame or at the end. Ctrl-C or SIGTERM
+    (raised in this, the main thread) waits for the write in progress, so that frame is complete and counted; the
+    frame in progress is not written (the worker's part of it ends before the run returns: ``processor.close()``).
     ``check`` raises an interrupt that was asked for and discarded (:class:`_RunInterrupts`); it is called after
     each frame is processed and after the last write.
     """
     frames = _read_ahead(refs) if read_ahead else ((ref, None) for ref in refs)
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="stereo-writer") as pool:
         pending: Future | None = None
+
+        def hand(out: FrameOutput) -> None:
+            nonlocal pending
+            if pending is not None:
+                pending.result()
+            pending = pool.submit(take, out)
+
+        before: Callable[[], FrameOutput] | None = None  # the frame started before, not yet handed on
         try:
             for ref, read in frames:
-                out = processor.process_ref(ref) if read is None else processor.process_ref(ref, read)
-                check()
-                if pending is not None:
-                    pending.result()
-                pending = pool.submit(take, out)
+                if not pipeline:
+                    out = processor.process_ref(ref) if read is None else processor.process_ref(ref, read)
+                    check()
+                    hand(out)
+                    continue
+                try:
+                    started = processor.start(ref) if read is None else processor.start(ref, read)
+                    check()
+                except BaseException:  # a failure or Ctrl-C here: the frame before is finished and written first
+                    if before is not None:
+                        hand(before())
+                    raise
+                if before is not None:
+                    hand(before())
+                before = started
+            if before is not None:
+                hand(before())
         finally:
             frames.close()  # a read in progress ends before this returns
             if pending is not None:
@@ -397,7 +460,7 @@ def run_source(source: Source, writer: FrameWriter, *, params_for: Callable[[int
                fusion: FusionParams | None = None, seed: int = 0, classes: Iterable[str] | None = None,
                concurrent: bool = False, scale: float = 1.0, progress: bool = False,
                on_frame: Callable[[Frame, PipelineResult], None] | None = None, on_error: str = "stop",
-               executor: Any = None, read_ahead: bool = False) -> RunSummary:
+               executor: Any = None, read_ahead: bool = False, pipeline: bool = True) -> RunSummary:
     """Run the pipeline on every frame of ``source`` and write each frame with ``writer``.
 
     Parameters
@@ -433,11 +496,18 @@ def run_source(source: Source, writer: FrameWriter, *, params_for: Callable[[int
         in frame order, so the output folder is the same byte for byte.
     read_ahead : bool
         Processing here: read (and decode) the next frame in a thread while this one is processed (the images'
-        decoding releases the GIL). Default False: on 2 cores the matcher's two threads keep both busy, and the
-        command's frames/s with and without it, interleaved, did not differ beyond the host's noise (KITTI pair
-        x30: medians 4.74 / 3.86, 5.00 / 6.25, 2.61 / 2.22 frames/s without / with, in three batches of 4-8
-        rounds; the 12 OAK-D scenes, 10 rounds: 8.62 / 8.29). Never for a live camera, whose next frame would wait a frame time before it is processed. The
-        output is the same either way.
+        decoding releases the GIL). Default False: beside the pipeline it gained nothing on 2 idle cores
+        (docs/cli.md, "Output"); the earlier measurements without it (KITTI pair x30: 4.74 / 3.86, 5.00 / 6.25,
+        2.61 / 2.22 frames/s without / with) were taken on a host whose other programs took the second core, where
+        no thread can gain. Never for a live camera, whose next frame would wait a frame time before it is
+        processed. The output is the same either way.
+    pipeline : bool
+        Processing here: each frame's detection, fusion and checks run in its Localizer's worker thread while the
+        next frame is read and matched here (:meth:`FrameProcessor.start`, :meth:`Localizer.submit`); the frames
+        are still handed to the writer one at a time and in order. Default True: on 2 idle cores the KITTI pair
+        x30 ran at 7.8-9.4 frames/s against 6.3-7.2 in turn, the 12 OAK-D scenes x3 at 11.2-14.2 against
+        10.4-12.7 (docs/cli.md, "Output"). The output is the same bytes either way (tested), Ctrl-C, SIGTERM and
+        ``resume`` as without it; ``concurrent`` then changes nothing (the detector is in the worker anyway).
 
     Returns
     -------
@@ -469,7 +539,7 @@ def run_source(source: Source, writer: FrameWriter, *, params_for: Callable[[int
             if executor is None:
                 live = isinstance(source, SideBySideSource) and source.is_camera
                 _run_overlapped(source.refs(skip), processor, collector.take, interrupts.check,
-                                read_ahead=read_ahead and not live)
+                                read_ahead=read_ahead and not live, pipeline=pipeline)
             else:
                 executor.run(source.refs(skip), processor, collector.take)
                 interrupts.check()

@@ -83,6 +83,7 @@ def _run_defaults() -> dict[str, tuple[Any, str]]:
         "max_frames": 0,
         "concurrent": False,
         "read_ahead": False,
+        "pipeline": True,
         "on_error": "stop",
         "executor": "serial",
         "scheduler": "",

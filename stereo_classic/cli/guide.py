@@ -21,6 +21,7 @@ import argparse
 import logging
 import sys
 import time
+from concurrent.futures import Future
 from pathlib import Path
 from typing import Any
 
@@ -74,9 +75,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     run_command.add_pipeline_options(p)
     more = p.add_argument_group("run")
     more.add_argument("--threads", type=int, default=None, metavar="N",
-                      help="threads for the matcher and the detector (default: all)")
+                      help="threads for the matcher and the detector (default: all for the matcher, 1 for the "
+                           "detector)")
     more.add_argument("--concurrent", action=argparse.BooleanOptionalAction, default=None,
                       help="run the detector in a thread beside the matcher")
+    more.add_argument("--pipeline", action=argparse.BooleanOptionalAction, default=None,
+                      help="detect, localize and check each frame in a worker thread while the next frame is read "
+                           "and matched (default on, not for a live camera; same events either way)")
     more.add_argument("--config", metavar="FILE.toml", help="read the run options from a TOML file (flags win)")
     p.set_defaults(func=func, save=None, ply=None)
     return p
@@ -137,6 +142,13 @@ def _mcap_sink(outdir: Path) -> Any:
         raise UsageError(str(exc)) from None
 
 
+def _done(result: Any) -> Future:
+    """A future already holding ``result`` (a frame processed in turn, handed on as a started one is)."""
+    future: Future = Future()
+    future.set_result(result)
+    return future
+
+
 def mcap_stamp(record: dict[str, Any]) -> int:
     from stereo_classic.outputs.mcap import frame_stamp_ns
 
@@ -163,54 +175,80 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
     bar = tqdm(total=len(source) or None, unit="frame", file=sys.stderr, leave=False,
                disable=quiet or args.no_progress or not sys.stderr.isatty())
     interrupted = False
+    # Pipelined (files and video, not a live camera, whose frame would be told a match later): frame N's
+    # detection, fusion and checks run in the Localizer's worker while frame N + 1 is read and matched here, and
+    # frame N is guided (in order, here) once frame N + 1's match is done; the same events as in turn.
+    pipelined = bool(cfg["pipeline"]) and not live
+    before: tuple[Any, ...] | None = None  # (frame, rig, result future) started, not yet guided
+
+    def guided(frame: Any, rig: calib.RectifiedRig, future: Any) -> None:
+        nonlocal frames, events
+        try:
+            result = future.result()
+        except ValueError as exc:
+            raise ValueError(f"frame {frame.name}: {exc}") from None
+        if separate:
+            guide.reset()
+        t = time.monotonic() - start if live else (0.0 if separate else frame.index / fps)
+        if not separate and frame.source and "time_s" in frame.source:  # a recording: its stamps
+            t = float(frame.source["time_s"])
+        t0 = time.perf_counter()
+        gframe = guide.update(result, rig, t, frame=frame.name)
+        guide_ms = (time.perf_counter() - t0) * 1e3
+        for event in gframe.events:
+            sink.append(event.to_dict())
+            tqdm.write(f"[{frame.name}] {event.priority}: {event.text}", file=sys.stdout)
+            speaker(event)
+        sink.append(gframe.haptics_record())
+        if mcap is not None:  # the frame's results and its events as ROS 2 messages
+            record = {"frame": frame.name, "index": frame.index, "source": frame.source,
+                      "objects": result.objects.to_json()}
+            mcap.write_frame(result, rig, record)
+            mcap.write_events([e.to_dict() for e in gframe.events], mcap_stamp(record))
+        for kind in kinds:
+            picture = (draw_overlay(result.left, gframe, rig, params) if kind == "overlay"
+                       else draw_birdseye(gframe, params))
+            io.write_image(outdir / f"{frame.name}_{kind}.png", picture)
+        timings.append({**result.timings_ms, "guide": guide_ms})
+        frames += 1
+        events += len(gframe.events)
+        bar.update(1)
+
     try:
         for frame in source.frames():
-            original = frame.rig if frame.rig is not None else base_rig
-            if original is None:
-                raise ValueError(f"frame {frame.name}: no calibration")
-            if not current or current[0] is not original:
-                if current:
-                    current.pop().close()
-                rig = original
-                if cfg["scale"] != 1.0:
-                    rig = (rig.without_maps() if rig.has_maps else rig).scaled(cfg["scale"])
-                current[:] = [original, rig, Localizer(
-                    rig, detector, run_command._matcher_params(cfg, frame.max_disparity), fusion=cfg["fusion"],
-                    seed=cfg["seed"], classes=cfg["classes"] or None, concurrent=cfg["concurrent"])]
-            _, rig, loc = current
-            left, right = frame.left, frame.right
             try:
-                if cfg["scale"] != 1.0:
-                    left, right = scale_pair(left, right, original, rig.image_size)
-                result = loc(left, right)
-            except ValueError as exc:
-                raise ValueError(f"frame {frame.name}: {exc}") from None
-            if separate:
-                guide.reset()
-            t = time.monotonic() - start if live else (0.0 if separate else frame.index / fps)
-            if not separate and frame.source and "time_s" in frame.source:  # a recording: its stamps
-                t = float(frame.source["time_s"])
-            t0 = time.perf_counter()
-            gframe = guide.update(result, rig, t, frame=frame.name)
-            guide_ms = (time.perf_counter() - t0) * 1e3
-            for event in gframe.events:
-                sink.append(event.to_dict())
-                tqdm.write(f"[{frame.name}] {event.priority}: {event.text}", file=sys.stdout)
-                speaker(event)
-            sink.append(gframe.haptics_record())
-            if mcap is not None:  # the frame's results and its events as ROS 2 messages
-                record = {"frame": frame.name, "index": frame.index, "source": frame.source,
-                          "objects": result.objects.to_json()}
-                mcap.write_frame(result, rig, record)
-                mcap.write_events([e.to_dict() for e in gframe.events], mcap_stamp(record))
-            for kind in kinds:
-                picture = (draw_overlay(result.left, gframe, rig, params) if kind == "overlay"
-                           else draw_birdseye(gframe, params))
-                io.write_image(outdir / f"{frame.name}_{kind}.png", picture)
-            timings.append({**result.timings_ms, "guide": guide_ms})
-            frames += 1
-            events += len(gframe.events)
-            bar.update(1)
+                original = frame.rig if frame.rig is not None else base_rig
+                if original is None:
+                    raise ValueError(f"frame {frame.name}: no calibration")
+                if not current or current[0] is not original:
+                    if current:
+                        current.pop().close()  # (waits for its worker: a frame started there stays readable)
+                    rig = original
+                    if cfg["scale"] != 1.0:
+                        rig = (rig.without_maps() if rig.has_maps else rig).scaled(cfg["scale"])
+                    current[:] = [original, rig, Localizer(
+                        rig, detector, run_command._matcher_params(cfg, frame.max_disparity), fusion=cfg["fusion"],
+                        seed=cfg["seed"], classes=cfg["classes"] or None, concurrent=cfg["concurrent"])]
+                _, rig, loc = current
+                left, right = frame.left, frame.right
+                try:
+                    if cfg["scale"] != 1.0:
+                        left, right = scale_pair(left, right, original, rig.image_size)
+                    started = loc.submit(left, right) if pipelined else _done(loc(left, right))
+                except ValueError as exc:
+                    raise ValueError(f"frame {frame.name}: {exc}") from None
+            except BaseException:  # a failure or Ctrl-C: the frame before first, as guiding in turn would have
+                if before is not None:
+                    guided(*before)
+                raise
+            if before is not None:
+                guided(*before)
+            before = (frame, rig, started)
+            if not pipelined:
+                guided(*before)
+                before = None
+        if before is not None:
+            guided(*before)
     except KeyboardInterrupt:
         interrupted = True
     finally:
@@ -220,8 +258,11 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
             mcap.close()
         if current:
             current[-1].close()
+    wall = time.monotonic() - start
     if timings and not quiet:
-        print(format_timings(timings), file=sys.stderr)
+        print(format_timings(timings, rate=False), file=sys.stderr)
+        print(f"{frames} frame(s) in {wall:.1f} s: {frames / wall:.2f} frames/s (wall clock of the whole frame loop: "
+              "reading, matching, detecting, checking, guiding, writing)", file=sys.stderr)
     text = f"{frames} frame(s), {events} event(s), events in {outdir / EVENTS_NAME}"
     if speaker.written:
         text += f", {len(speaker.written)} WAV file(s) in {args.speak_to}"

@@ -45,6 +45,38 @@ def test_localizer_accuracy_reuse_and_concurrency(scene):
     np.testing.assert_array_equal(a.disparity.disparity, c.disparity.disparity)
 
 
+def test_submit_gives_what_a_call_gives_with_the_rest_in_the_worker(scene):
+    """Localizer.submit: matched in the caller's thread, detector, fusion and checks in the worker; the result is a
+    call's (objects, warnings, disparity), frames submitted back to back included, and a bad pair raises here."""
+    import threading
+
+    from stereo_classic.matching import StereoInputError
+
+    left, right, _ = scene
+    threads = []
+
+    class Spy(FixedBoxes):
+        def detect(self, image):
+            threads.append(threading.current_thread().name)
+            return super().detect(image)
+
+    det = Spy([[80, 50, 160, 110], [0, 0, 40, 30]])
+    with Localizer(make_rig(240, 160), det, {"num_disparities": 48}) as seq:
+        a = seq(left, right)
+        swapped_a = seq(right, left)
+    with Localizer(make_rig(240, 160), det, {"num_disparities": 48}) as loc:
+        futures = [loc.submit(left, right), loc.submit(right, left), loc.submit(left, right)]
+        b, swapped_b, c = (f.result() for f in futures)
+        with pytest.raises(StereoInputError, match="differ in size"):
+            loc.submit(left, right[:, :200])
+    assert threads[:2] == [threading.current_thread().name] * 2 and all(t.startswith("localizer") for t in threads[2:])
+    for x, y in ((a, b), (a, c), (swapped_a, swapped_b)):
+        assert json.dumps(x.objects.to_json()) == json.dumps(y.objects.to_json())
+        assert [w.to_json() for w in x.warnings] == [w.to_json() for w in y.warnings]
+        np.testing.assert_array_equal(x.disparity.disparity, y.disparity.disparity)
+    assert list(b.timings_ms) == list(STAGES) == list(b.cpu_ms)
+
+
 def test_localizer_class_filter(scene):
     left, right, _ = scene
     with Localizer(make_rig(240, 160), FixedBoxes([[80, 50, 160, 110], [0, 0, 40, 30]]), {"num_disparities": 48},

@@ -13,6 +13,7 @@ from stereo_classic.outputs import FrameWriter
 from stereo_classic.runner import RunSummary, run_source, scale_pair
 from stereo_classic.sources import PairSource
 from tests.helpers.scenes import make_rig, planted_scene
+from tests.helpers.detectors import FixedBoxes
 
 
 @pytest.fixture()
@@ -57,7 +58,7 @@ def test_library_run_writes_what_the_command_writes(tmp_path, pairs):
 def test_resume_skips_finished_frames_and_ctrl_c_is_a_summary(tmp_path, pairs, monkeypatch):
     files, rig = pairs
     out = tmp_path / "o"
-    real_call = pipeline.Localizer.__call__
+    real_call = pipeline.Localizer._rectified
     calls = {"n": 0}
 
     def interrupt_on_second(self, left, right):
@@ -66,11 +67,11 @@ def test_resume_skips_finished_frames_and_ctrl_c_is_a_summary(tmp_path, pairs, m
             raise KeyboardInterrupt
         return real_call(self, left, right)
 
-    monkeypatch.setattr(pipeline.Localizer, "__call__", interrupt_on_second)
+    monkeypatch.setattr(pipeline.Localizer, "_rectified", interrupt_on_second)
     first = run_source(PairSource(files), FrameWriter(out, sequence=True), params_for=_params, rig=rig)
     assert (first.frames, first.interrupted) == (1, True)
     assert not list(out.glob("f1_L*"))
-    monkeypatch.setattr(pipeline.Localizer, "__call__", real_call)
+    monkeypatch.setattr(pipeline.Localizer, "_rectified", real_call)
     again = run_source(PairSource(files), FrameWriter(out, sequence=True, resume=True), params_for=_params, rig=rig)
     assert (again.frames, again.skipped, again.interrupted) == (1, 1, False)
     assert len((out / "objects.jsonl").read_text().splitlines()) == 2
@@ -183,15 +184,46 @@ def test_reading_ahead_writes_the_same_bytes_and_reads_in_its_own_thread(tmp_pat
     monkeypatch.setattr(sources, "_read_pair",
                         lambda *a: readers.append(threading.current_thread().name) or real(*a))
     outs = {}
-    for ahead in (False, True):
+    for ahead, pipelined in ((False, False), (True, False), (False, True), (True, True)):
         readers.clear()
-        out = tmp_path / f"ahead_{ahead}"
-        summary = run_source(PairSource(files), FrameWriter(out, sequence=True),
-                             params_for=_params, rig=rig, on_error="skip", read_ahead=ahead)
+        out = tmp_path / f"ahead_{ahead}_{pipelined}"
+        summary = run_source(PairSource(files), FrameWriter(out, sequence=True, save=("json", "pfm")),
+                             params_for=_params, rig=rig, detector=FixedBoxes([[20, 15, 60, 45]]),
+                             detector_name="fixed", on_error="skip", read_ahead=ahead, pipeline=pipelined)
         assert (summary.frames, [name for name, _ in summary.failed]) == (3, ["c_L"])
         assert all(n.startswith("stereo-reader") == ahead for n in readers) and len(readers) == 4
-        outs[ahead] = {p.name: p.read_bytes() for p in sorted(out.iterdir())}
-    assert outs[True] == outs[False] and len(outs[True]) > 3
+        outs[ahead, pipelined] = {p.name: p.read_bytes() for p in sorted(out.iterdir())}
+    assert len(set(map(str, outs.values()))) == 1 and len(outs[True, True]) > 3
+    assert b'"box_xyxy"' in outs[True, True]["objects.jsonl"]  # the detector's objects are in it
+
+
+def test_pipelined_run_hands_on_the_frame_before_a_failure_or_ctrl_c(tmp_path, pairs, monkeypatch):
+    """A frame that fails to start (on_error stop), or Ctrl-C while it starts, comes after the frame before it is
+    written: the folder holds what processing in turn leaves."""
+    from stereo_classic import pipeline
+
+    files, rig = pairs
+    real = pipeline.Localizer._rectified
+    for what in (ValueError, KeyboardInterrupt):
+        calls = {"n": 0}
+
+        def fail_on_third(self, left, right, what=what, calls=calls):
+            calls["n"] += 1
+            if calls["n"] == 3:
+                raise what("third frame")
+            return real(self, left, right)
+
+        monkeypatch.setattr(pipeline.Localizer, "_rectified", fail_on_third)
+        out = tmp_path / what.__name__
+        if what is ValueError:
+            with pytest.raises(ValueError, match="third frame"):
+                run_source(PairSource(files * 2), FrameWriter(out, sequence=True), params_for=_params, rig=rig)
+        else:
+            summary = run_source(PairSource(files * 2), FrameWriter(out, sequence=True), params_for=_params,
+                                 rig=rig)
+            assert summary.interrupted and summary.frames == 2
+        lines = (out / "objects.jsonl").read_text().splitlines()
+        assert [json.loads(line)["index"] for line in lines] == [0, 1]
 
 
 def test_read_ahead_on_the_command_line_writes_the_same_files(tmp_path, pairs):
@@ -199,10 +231,11 @@ def test_read_ahead_on_the_command_line_writes_the_same_files(tmp_path, pairs):
     calib_file = tmp_path / "rig.yaml"
     rig.to_opencv_yaml(calib_file)
     outs = {}
-    for flag in ("--read-ahead", "--no-read-ahead"):
+    for flag in ("--read-ahead", "--no-read-ahead", "--no-pipeline"):
         out = tmp_path / flag
         argv = ["-q", "run", "--left", *[str(p[0]) for p in files], "--right", *[str(p[1]) for p in files],
                 "--calib", str(calib_file), "--model", "none", "--num-disparities", "48", flag, "-o", str(out)]
         assert main(argv) == 0
         outs[flag] = {p.name: p.read_bytes() for p in sorted(out.iterdir()) if p.name != ".stereo_classic.lock"}
-    assert outs["--read-ahead"] == outs["--no-read-ahead"] and "objects.jsonl" in outs["--read-ahead"]
+    assert outs["--read-ahead"] == outs["--no-read-ahead"] == outs["--no-pipeline"]
+    assert "objects.jsonl" in outs["--read-ahead"]

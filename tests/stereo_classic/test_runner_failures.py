@@ -94,7 +94,7 @@ def test_a_ctrl_c_discarded_where_it_was_raised_still_ends_the_run(tmp_path, pai
 
     files, rig, _ = pairs
     out = tmp_path / "o"
-    real_call = pipeline.Localizer.__call__
+    real_call = pipeline.Localizer._rectified
     seen = {"n": 0, "discarded": False}
 
     def discard_on_second(self, left, right):
@@ -108,7 +108,7 @@ def test_a_ctrl_c_discarded_where_it_was_raised_still_ends_the_run(tmp_path, pai
                 seen["discarded"] = True
         return real_call(self, left, right)
 
-    monkeypatch.setattr(pipeline.Localizer, "__call__", discard_on_second)
+    monkeypatch.setattr(pipeline.Localizer, "_rectified", discard_on_second)
     summary = run_source(PairSource(files), FrameWriter(out, sequence=True), params_for=_params, rig=rig)
     assert seen["discarded"]
     assert summary.interrupted and summary.signal == "SIGINT"
@@ -126,14 +126,14 @@ def test_a_run_leaves_an_applications_sigint_handler_alone_and_restores_sigterm(
 
     previous = signal.signal(signal.SIGINT, mine)
     term_before = signal.getsignal(signal.SIGTERM)
-    real_call = pipeline.Localizer.__call__
+    real_call = pipeline.Localizer._rectified
     during = []
 
     def look(self, left, right):
         during.append((signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)))
         return real_call(self, left, right)
 
-    monkeypatch.setattr(pipeline.Localizer, "__call__", look)
+    monkeypatch.setattr(pipeline.Localizer, "_rectified", look)
     try:
         summary = run_source(PairSource(files[:2]), FrameWriter(tmp_path / "o", sequence=True), params_for=_params,
                              rig=rig)

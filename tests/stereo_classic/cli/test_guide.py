@@ -171,3 +171,15 @@ def test_vertical_lines_in_the_events(tmp_path):
     assert any("looks up" in n for n in haptics[0]["notes"])
     assert main([*args, "-o", str(tmp_path / "off"), "--no-vertical-lines"]) == 0
     assert all(r["gravity"] is None for r in _lines(tmp_path / "off") if r["kind"] == "haptics")
+
+
+def test_pipelined_and_in_turn_give_the_same_events_and_pictures(walk, tmp_path, capsys):
+    """--pipeline (the default: frame N guided once N + 1 is matched) and --no-pipeline: the same bytes, and the
+    run ends with its wall-clock frames/s."""
+    outs = {}
+    for flag in ("--pipeline", "--no-pipeline"):
+        out = tmp_path / flag
+        assert main(_args(walk, out, "--fps", "10", "--save", "overlay,birdseye", flag)) == 0
+        assert "6 frame(s) in" in capsys.readouterr().err
+        outs[flag] = {p.name: p.read_bytes() for p in sorted(out.iterdir())}
+    assert outs["--pipeline"] == outs["--no-pipeline"] and len(outs["--pipeline"]) == 13

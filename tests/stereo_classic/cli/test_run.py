@@ -146,7 +146,7 @@ def test_ctrl_c_leaves_finished_frames_complete_and_resume_finishes(tmp_path, pa
 
     out = tmp_path / "o"
     calls = {"n": 0}
-    real_call = pipeline.Localizer.__call__
+    real_call = pipeline.Localizer._rectified
 
     def interrupt_on_second(self, left, right):
         calls["n"] += 1
@@ -154,13 +154,13 @@ def test_ctrl_c_leaves_finished_frames_complete_and_resume_finishes(tmp_path, pa
             raise KeyboardInterrupt
         return real_call(self, left, right)
 
-    monkeypatch.setattr(pipeline.Localizer, "__call__", interrupt_on_second)
+    monkeypatch.setattr(pipeline.Localizer, "_rectified", interrupt_on_second)
     assert main(_base(pairs, out)) == 130
     assert "interrupted" in capsys.readouterr().err
     _check_outputs(out, "f0_L", (160, 240), kinds=EVERY_KIND[:5])
     assert not list(out.glob("f1_L*")) and not list(out.glob("f2_L*"))
     assert len((out / "objects.jsonl").read_text().splitlines()) == 1
-    monkeypatch.setattr(pipeline.Localizer, "__call__", real_call)
+    monkeypatch.setattr(pipeline.Localizer, "_rectified", real_call)
 
     assert main(_base(pairs, out)[1:] + ["--resume"]) == 0  # without -q: the summary is shown
     assert "1 finished frame(s) skipped" in capsys.readouterr().err
@@ -479,8 +479,15 @@ def test_dataset_run_keeps_the_buffers_of_one_matcher_only(tmp_path, shared_data
         holding.append(sum(loc.matcher._workspace not in (None, False) for loc in created))
         return result
 
+    def counting_submit(self, left, right):  # the pipelined run: the match is done when submit returns
+        future = real_submit(self, left, right)
+        holding.append(sum(loc.matcher._workspace not in (None, False) for loc in created))
+        return future
+
+    real_submit = pipeline.Localizer.submit
     monkeypatch.setattr(pipeline.Localizer, "__init__", tracking_init)
     monkeypatch.setattr(pipeline.Localizer, "__call__", counting_call)
+    monkeypatch.setattr(pipeline.Localizer, "submit", counting_submit)
     argv = ["-q", "run", "--dataset", str(shared_data / "oakd"), "--max-frames", "3", "--scale", "0.25",
             "--model", "none", "--save", "json", "-o", str(tmp_path / "o")]
     assert main(argv) == 0
