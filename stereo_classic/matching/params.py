@@ -274,8 +274,9 @@ class SGMParams:
         every pixel with at least one candidate. None (default): 0.5 for the classical costs (measured on the
         shared scenes, dense bad-2, Middlebury-style / driving, with the same penalties everywhere: keep all
         6.8 / 18.6, 0.5 6.5 / 15.9, 1.0 8.2 / 16.8; with the weak-texture penalties: keep all 7.9 / 11.8, 0.5
-        6.7 / 8.0), 0 for the learned ones with ``outside_match`` "neutral", whose candidates outside the right image have a
-        neutral cost (a pixel whose match is out of reach picks one of them and is unknown by itself). See ``effective_border_reach``.
+        6.7 / 8.0), 0 for the learned ones with ``outside_match`` "neutral", whose candidates outside the right
+        image have a neutral cost (a pixel whose match is out of reach picks one of them and is unknown by itself).
+        See ``effective_border_reach``.
     outside_match : {"neutral", "forbidden"}
         The cost of a disparity whose match falls outside the right image (pixels near the left edge). "neutral"
         (default): what two unrelated census windows cost on average, half the census bits (31 for 9 x 7; a learned
