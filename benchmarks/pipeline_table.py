@@ -82,6 +82,17 @@ def _record(command: str, guide: Any, result: Any, rig: Any, i: int) -> dict[str
     return {"frame": f"{i:05d}", "objects": result.objects.to_json(), "warnings": [w.to_json() for w in result.warnings]}
 
 
+def _warm_up(loc: Any, frame: tuple[Path, Path], rig: Any, guided: bool) -> None:
+    """One frame through the Localizer (kernel compilation, allocation, the detector's session) and, for ``guide``,
+    through a throwaway Guide (its own kernels compile on their first call: left in, that first call's CPU made the
+    guide stage's mean CPU ten times its median)."""
+    from stereo_classic.guide import Guide
+
+    result = loc(_read(frame[0]), _read(frame[1]))
+    if guided:
+        Guide().update(result, rig, 0.0, frame="warm-up")
+
+
 def _pipelined(spec: dict[str, Any], model: Path, command: str, tmp: Path) -> tuple[float, float]:
     """(frames/s, median latency ms) of the loop pipelined as ``run`` drives it: frame N + 1 read and submitted
     (matched here) before frame N's result is taken, its record made and written."""
@@ -95,7 +106,7 @@ def _pipelined(spec: dict[str, Any], model: Path, command: str, tmp: Path) -> tu
     with Localizer(spec["rig"], OnnxDetector(str(model), threads=DETECTOR_THREADS),
                    {"num_disparities": spec["num_disparities"], "threads": 2}) as loc, \
             open(tmp / f"{command}_pipelined.jsonl", "w", encoding="utf-8") as sink:
-        loc(_read(frames[0][0]), _read(frames[0][1]))  # warm-up: compilation, allocation, session
+        _warm_up(loc, frames[0], spec["rig"], guide is not None)
         loop = time.perf_counter()
         pending = None  # (frame index, its start, its future)
         for i in range(len(frames) + 1):
@@ -127,7 +138,7 @@ def _one(spec: dict[str, Any], model: Path, command: str, tmp: Path) -> dict[str
     with Localizer(spec["rig"], OnnxDetector(str(model), threads=DETECTOR_THREADS),
                    {"num_disparities": spec["num_disparities"], "threads": 2}) as loc, \
             open(tmp / f"{command}.jsonl", "w", encoding="utf-8") as sink:
-        loc(_read(frames[0][0]), _read(frames[0][1]))  # warm-up: compilation, allocation, session
+        _warm_up(loc, frames[0], spec["rig"], guide is not None)
         loop = time.perf_counter()
         for i, (lp, rp) in enumerate(frames):
             stamp: dict[str, float] = {}
