@@ -82,15 +82,18 @@ def _record(command: str, guide: Any, result: Any, rig: Any, i: int) -> dict[str
     return {"frame": f"{i:05d}", "objects": result.objects.to_json(), "warnings": [w.to_json() for w in result.warnings]}
 
 
-def _warm_up(loc: Any, frame: tuple[Path, Path], rig: Any, guided: bool) -> None:
-    """One frame through the Localizer (kernel compilation, allocation, the detector's session) and, for ``guide``,
-    through a throwaway Guide (its own kernels compile on their first call: left in, that first call's CPU made the
-    guide stage's mean CPU ten times its median)."""
+def _warm_up(loc: Any, frames: Sequence[tuple[Path, Path]], rig: Any, guided: bool) -> None:
+    """The first frame through the Localizer (kernel compilation, allocation, the detector's session) and, for
+    ``guide``, every distinct frame through a throwaway Guide: its kernels compile on the first call that takes each
+    of their paths (the floor, drop-offs, tracks), and with a cold numba cache those calls made the guide stage's
+    mean CPU ten times its median on the OAK-D scenes."""
     from stereo_classic.guide import Guide
 
-    result = loc(_read(frame[0]), _read(frame[1]))
+    loc(_read(frames[0][0]), _read(frames[0][1]))
     if guided:
-        Guide().update(result, rig, 0.0, frame="warm-up")
+        guide = Guide()
+        for i, (lp, rp) in enumerate(dict.fromkeys(frames)):
+            guide.update(loc(_read(lp), _read(rp)), rig, i / 10.0, frame=f"warm-up {i}")
 
 
 def _pipelined(spec: dict[str, Any], model: Path, command: str, tmp: Path) -> tuple[float, float]:
@@ -106,7 +109,7 @@ def _pipelined(spec: dict[str, Any], model: Path, command: str, tmp: Path) -> tu
     with Localizer(spec["rig"], OnnxDetector(str(model), threads=DETECTOR_THREADS),
                    {"num_disparities": spec["num_disparities"], "threads": 2}) as loc, \
             open(tmp / f"{command}_pipelined.jsonl", "w", encoding="utf-8") as sink:
-        _warm_up(loc, frames[0], spec["rig"], guide is not None)
+        _warm_up(loc, frames, spec["rig"], guide is not None)
         loop = time.perf_counter()
         pending = None  # (frame index, its start, its future)
         for i in range(len(frames) + 1):
@@ -138,7 +141,7 @@ def _one(spec: dict[str, Any], model: Path, command: str, tmp: Path) -> dict[str
     with Localizer(spec["rig"], OnnxDetector(str(model), threads=DETECTOR_THREADS),
                    {"num_disparities": spec["num_disparities"], "threads": 2}) as loc, \
             open(tmp / f"{command}.jsonl", "w", encoding="utf-8") as sink:
-        _warm_up(loc, frames[0], spec["rig"], guide is not None)
+        _warm_up(loc, frames, spec["rig"], guide is not None)
         loop = time.perf_counter()
         for i, (lp, rp) in enumerate(frames):
             stamp: dict[str, float] = {}
