@@ -27,9 +27,12 @@ import statistics
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
+
+from stereo_classic.cli.run import DETECTOR_THREADS  # the detector's threads, as run and guide give it
 
 __all__ = ["STAGES", "measure", "pipeline_inputs", "main"]
 
@@ -73,7 +76,6 @@ def _read(path: Path) -> Any:
     return image
 
 
-from stereo_classic.cli.run import DETECTOR_THREADS  # the detector's threads, as run and guide give it
 
 
 def _record(command: str, guide: Any, result: Any, rig: Any, i: int) -> dict[str, Any]:
@@ -82,34 +84,38 @@ def _record(command: str, guide: Any, result: Any, rig: Any, i: int) -> dict[str
     return {"frame": f"{i:05d}", "objects": result.objects.to_json(), "warnings": [w.to_json() for w in result.warnings]}
 
 
-def _warm_up(loc: Any, frames: Sequence[tuple[Path, Path]], rig: Any, guided: bool) -> None:
-    """The first frame through the Localizer (kernel compilation, allocation, the detector's session) and, for
-    ``guide``, every distinct frame through a throwaway Guide: its kernels compile on the first call that takes each
-    of their paths (the floor, drop-offs, tracks), and with a cold numba cache those calls made the guide stage's
-    mean CPU ten times its median on the OAK-D scenes."""
+@contextmanager
+def _warm_localizer(spec: dict[str, Any], model: Path, guided: bool) -> Iterator[Any]:
+    """The input's Localizer (matcher at 2 threads, the detector as ``run`` has it), warmed up: the first frame
+    through it (kernel compilation, allocation, the detector's session) and, for ``guide``, every distinct frame
+    through a throwaway Guide: its kernels compile on the first call that takes each of their paths (the floor,
+    drop-offs, tracks), and with a cold numba cache those calls made the guide stage's mean CPU ten times its median
+    on the OAK-D scenes."""
+    from detectors import OnnxDetector
     from stereo_classic.guide import Guide
+    from stereo_classic.pipeline import Localizer
 
-    loc(_read(frames[0][0]), _read(frames[0][1]))
-    if guided:
-        guide = Guide()
-        for i, (lp, rp) in enumerate(dict.fromkeys(frames)):
-            guide.update(loc(_read(lp), _read(rp)), rig, i / 10.0, frame=f"warm-up {i}")
+    frames = spec["frames"]
+    with Localizer(spec["rig"], OnnxDetector(str(model), threads=DETECTOR_THREADS),
+                   {"num_disparities": spec["num_disparities"], "threads": 2}) as loc:
+        loc(_read(frames[0][0]), _read(frames[0][1]))
+        if guided:
+            guide = Guide()
+            for i, (lp, rp) in enumerate(dict.fromkeys(frames)):
+                guide.update(loc(_read(lp), _read(rp)), spec["rig"], i / 10.0, frame=f"warm-up {i}")
+        yield loc
 
 
 def _pipelined(spec: dict[str, Any], model: Path, command: str, tmp: Path) -> tuple[float, float]:
     """(frames/s, median latency ms) of the loop pipelined as ``run`` drives it: frame N + 1 read and submitted
     (matched here) before frame N's result is taken, its record made and written."""
-    from detectors import OnnxDetector
     from stereo_classic.guide import Guide
-    from stereo_classic.pipeline import Localizer
 
     guide = Guide() if command == "guide" else None
     frames = spec["frames"]
     latency: list[float] = []
-    with Localizer(spec["rig"], OnnxDetector(str(model), threads=DETECTOR_THREADS),
-                   {"num_disparities": spec["num_disparities"], "threads": 2}) as loc, \
+    with _warm_localizer(spec, model, guide is not None) as loc, \
             open(tmp / f"{command}_pipelined.jsonl", "w", encoding="utf-8") as sink:
-        _warm_up(loc, frames, spec["rig"], guide is not None)
         loop = time.perf_counter()
         pending = None  # (frame index, its start, its future)
         for i in range(len(frames) + 1):
@@ -129,19 +135,15 @@ def _pipelined(spec: dict[str, Any], model: Path, command: str, tmp: Path) -> tu
 
 
 def _one(spec: dict[str, Any], model: Path, command: str, tmp: Path) -> dict[str, Any]:
-    from detectors import OnnxDetector
     from stereo_classic.guide import Guide
-    from stereo_classic.pipeline import Localizer
 
     wall: dict[str, list[float]] = {}
     cpu: dict[str, list[float]] = {}
     latency: list[float] = []
     guide = Guide() if command == "guide" else None
     frames = spec["frames"]
-    with Localizer(spec["rig"], OnnxDetector(str(model), threads=DETECTOR_THREADS),
-                   {"num_disparities": spec["num_disparities"], "threads": 2}) as loc, \
+    with _warm_localizer(spec, model, guide is not None) as loc, \
             open(tmp / f"{command}.jsonl", "w", encoding="utf-8") as sink:
-        _warm_up(loc, frames, spec["rig"], guide is not None)
         loop = time.perf_counter()
         for i, (lp, rp) in enumerate(frames):
             stamp: dict[str, float] = {}

@@ -19,6 +19,13 @@ def _flat(text: str) -> str:
     return re.sub(r"\s+", " ", text)
 
 
+def _assert_quoted(doc: str, expected: list[str], message: str) -> None:
+    """Every line of ``expected`` is in docs/``doc`` (line breaks as spaces); else fail with ``message`` and them."""
+    text = _flat((REPO / "docs" / doc).read_text(encoding="utf-8"))
+    missing = [e for e in expected if e not in text]
+    assert not missing, message + "\n" + "\n".join(missing)
+
+
 @pytest.fixture(scope="module")
 def report() -> dict:
     return json.loads(REPORT.read_text(encoding="utf-8"))
@@ -80,9 +87,7 @@ def test_fusion_md_kitti_numbers_are_what_the_code_gives(shared_data, yolox_nano
         f"`grow_density=0` (the paper's plain set): {_errors(alone(result.disparity, grow_density=0.0), ref)} (",
         f"`method=\"median\"`: {_errors(alone(result.disparity, method='median'), ref)} (",
     ]
-    text = _flat((REPO / "docs" / "fusion.md").read_text(encoding="utf-8"))
-    missing = [e for e in expected if e not in text]
-    assert not missing, "docs/fusion.md's KITTI numbers are not the code's; now:\n" + "\n".join(missing)
+    _assert_quoted("fusion.md", expected, "docs/fusion.md's KITTI numbers are not the code's; now:")
 
 
 def test_fusion_md_pipeline_speed_is_the_report(report):
@@ -99,9 +104,7 @@ def test_fusion_md_pipeline_speed_is_the_report(report):
         f"({runs[((1242, 375), True)]['fps']:.1f} against {kitti['fps']:.1f} frames/s in the same run at {commit},",
         f"({runs[((640, 480), True)]['fps']:.1f} against {runs[((640, 480), False)]['fps']:.1f} at {commit},",
     ]
-    text = _flat((REPO / "docs" / "fusion.md").read_text(encoding="utf-8"))
-    missing = [e for e in expected if e not in text]
-    assert not missing, "docs/fusion.md's speed figures are not the report's; the report gives:\n" + "\n".join(missing)
+    _assert_quoted("fusion.md", expected, "docs/fusion.md's speed figures are not the report's; the report gives:")
 
 
 def test_benchmarks_md_kitti_table_is_the_report(report):

@@ -23,7 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["STRIP_MARGIN", "left_border_columns", "confirm_left_border"]
+__all__ = ["STRIP_MARGIN", "left_border_columns", "strip_width", "confirm_left_border"]
 
 #: Columns of the strip beyond what the checked pixels' matches can reach: the cost windows (census 9 x 7: 4 px,
 #: the gradient term's block: 2 px) and some warm-up for the path that enters the strip at its cut edge.
@@ -38,6 +38,12 @@ def left_border_columns(short: np.ndarray) -> int:
     return int(unset[0]) if unset.size else int(short.size)
 
 
+def strip_width(columns: int, width: int, params) -> int:
+    """Columns of the mirrored strip that checks the first ``columns`` columns of an image ``width`` wide: those, the
+    range their matches can reach, and ``STRIP_MARGIN``."""
+    return min(width, columns + abs(params.min_disparity) + params.num_disparities + STRIP_MARGIN)
+
+
 def confirm_left_border(left: np.ndarray, right: np.ndarray, disparity: np.ndarray, columns: int, params,
                         match: Callable) -> np.ndarray:
     """(H, columns) bool: the pixels of the first ``columns`` columns of ``disparity`` (finite = the left view's
@@ -48,7 +54,7 @@ def confirm_left_border(left: np.ndarray, right: np.ndarray, disparity: np.ndarr
     ``DisparityMap`` (called once, on the mirrored strip, without the fill and without this check).
     """
     H, W = left.shape
-    width = min(W, columns + abs(params.min_disparity) + params.num_disparities + STRIP_MARGIN)
+    width = strip_width(columns, W, params)
     mirrored_left = np.ascontiguousarray(right[:, :width][:, ::-1])
     mirrored_right = np.ascontiguousarray(left[:, :width][:, ::-1])
     strip = match(mirrored_left, mirrored_right,

@@ -27,12 +27,16 @@ def read_ros2_messages(path: Path) -> list:
         return list(make_reader(f, decoder_factories=[DecoderFactory()]).iter_decoded_messages())
 
 
-def test_save_mcap_holds_every_frame_in_order(shared_data: Path, tmp_path):
+def _kitti_pair(shared_data: Path):
+    """(left, right, rig) of the shared KITTI pair; the test is skipped where it is absent."""
     folder = shared_data / "kitti_object_pair"
     if not folder.is_dir():
         pytest.skip("kitti_object_pair not in the shared data")
-    left, right = read_image(folder / "left.png"), read_image(folder / "right.png")
-    rig = calib.load_rig(folder / "calib.txt")
+    return read_image(folder / "left.png"), read_image(folder / "right.png"), calib.load_rig(folder / "calib.txt")
+
+
+def test_save_mcap_holds_every_frame_in_order(shared_data: Path, tmp_path):
+    left, right, rig = _kitti_pair(shared_data)
     stamps = [T0, T0 + 50_000_000, T0 + 100_000_000]
     bag = ros_bags.stereo_bag(tmp_path / "in.mcap", left, right, rig, stamps)
     out = tmp_path / "out"
@@ -72,11 +76,7 @@ def test_save_mcap_refuses_resume(tmp_path, capsys):
 
 
 def test_guide_save_mcap_holds_the_events(shared_data: Path, tmp_path):
-    folder = shared_data / "kitti_object_pair"
-    if not folder.is_dir():
-        pytest.skip("kitti_object_pair not in the shared data")
-    left, right = read_image(folder / "left.png"), read_image(folder / "right.png")
-    rig = calib.load_rig(folder / "calib.txt")
+    left, right, rig = _kitti_pair(shared_data)
     bag = ros_bags.stereo_bag(tmp_path / "in.mcap", left, right, rig, [T0, T0 + 100_000_000])
     out = tmp_path / "guide"
     assert main(["guide", "-q", "--bag", str(bag), "--left-topic", LEFT, "--right-topic", RIGHT, "--save", "mcap",
