@@ -76,8 +76,6 @@ def _read(path: Path) -> Any:
     return image
 
 
-
-
 def _record(command: str, guide: Any, result: Any, rig: Any, i: int) -> dict[str, Any]:
     if guide is not None:
         return guide.update(result, rig, i / 10.0, frame=f"{i:05d}").haptics_record()
