@@ -206,8 +206,9 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
     import cv2  # noqa: F401 - OpenCV is a runtime dependency; imported here to fail early and plainly
 
     from benchmarks.methods import Setup, opencv_methods
-    from detectors import OnnxDetector, resolve_model
+    from detectors import resolve_model
     from stereo_classic import Localizer
+    from stereo_classic.pipeline import open_detector
     from stereo_classic.cli.options import CLI_NUM_DISPARITIES
     from stereo_classic.datasets import (
         lidar_points_in_labels,
@@ -238,7 +239,7 @@ def kitti_object_benchmark(data_dir: str | Path | None = None, *, methods: Seque
                        threads=threads)
     fusion = FusionParams() if fusion is None else fusion
     model_path = resolve_model(model)
-    detector = OnnxDetector(model_path, conf_threshold=0.3, iou_threshold=0.45, threads=threads)
+    detector = open_detector(model_path, conf_threshold=0.3, iou_threshold=0.45, threads=threads)  # as run does
     with Localizer(rig, detector, params, fusion=fusion, seed=seed) as loc:
         result = loc(scene.left, scene.right)
     dets = result.detections

@@ -71,14 +71,15 @@ def _detections(boxes: np.ndarray, labels: Sequence[str]) -> Any:
 def _driving(data_dir: Any, fusions: dict[str, Any]) -> list[dict[str, Any]]:
     import stereo_classic as sc
     from benchmarks.scenes import disparity_range, load_scenes
-    from detectors import OnnxDetector, resolve_model
+    from detectors import resolve_model
     from stereo_classic.fusion import localize, sparse_depth_reference
 
     scenes = [s for s in load_scenes(data_dir) if s.family == "driving" and s.gt_disparity is not None
               and s.rig is not None]
     if not scenes:
         return []
-    detector = OnnxDetector(resolve_model("yolox_nano"), conf_threshold=0.3, iou_threshold=0.45, threads=2)
+    detector = sc.pipeline.open_detector(resolve_model("yolox_nano"), conf_threshold=0.3, iou_threshold=0.45,
+                                         threads=2)  # as run opens it
     rows = []
     for scene in scenes:
         with sc.Localizer(scene.rig, detector, {"num_disparities": disparity_range(scene), "threads": 2}) as loc:

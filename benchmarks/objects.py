@@ -79,8 +79,7 @@ def pipeline_fps(scene: Any, model: Path | None, *, num_disparities: int, thread
         from stereo_classic import pipeline
         detector: Any = None
         if model is not None:
-            from detectors import OnnxDetector
-            detector = OnnxDetector(str(model), threads=threads)
+            detector = pipeline.open_detector(str(model), threads=threads)  # as run opens it
         loc = pipeline.Localizer(scene.rig, detector, {"num_disparities": num_disparities, "threads": threads},
                                  concurrent=concurrent)
         t0 = time.perf_counter()
@@ -125,8 +124,8 @@ def distance_errors(scene: Any, model: Path | None, outputs: Mapping[str, np.nda
         return _unavailable("no detector model found (give --models DIR or set STEREO_CLASSIC_MODELS)")
     try:
         from stereo_classic.fusion import localize
-        from detectors import OnnxDetector
-        dets = OnnxDetector(str(model)).detect(scene.left)
+        from stereo_classic.pipeline import open_detector
+        dets = open_detector(str(model)).detect(scene.left)
         if classes:
             dets = dets.only(*classes)
     except Exception as exc:  # noqa: BLE001

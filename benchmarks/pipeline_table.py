@@ -89,12 +89,11 @@ def _warm_localizer(spec: dict[str, Any], model: Path, guided: bool) -> Iterator
     through a throwaway Guide: its kernels compile on the first call that takes each of their paths (the floor,
     drop-offs, tracks), and with a cold numba cache those calls made the guide stage's mean CPU ten times its median
     on the OAK-D scenes."""
-    from detectors import OnnxDetector
     from stereo_classic.guide import Guide
-    from stereo_classic.pipeline import Localizer
+    from stereo_classic.pipeline import Localizer, open_detector
 
     frames = spec["frames"]
-    with Localizer(spec["rig"], OnnxDetector(str(model), threads=DETECTOR_THREADS),
+    with Localizer(spec["rig"], open_detector(str(model), threads=DETECTOR_THREADS),
                    {"num_disparities": spec["num_disparities"], "threads": 2}) as loc:
         loc(_read(frames[0][0]), _read(frames[0][1]))
         if guided:

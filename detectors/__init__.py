@@ -6,7 +6,7 @@ Leaf package: imports neither ``stereo_classic`` nor ``calib``.
 
 from detectors.classes import COCO_CATEGORY_IDS, COCO_CLASSES
 from detectors.decoders import FAMILIES
-from detectors.errors import ModelError, ModelNotFoundError
+from detectors.errors import InputSizeError, ModelError, ModelNotFoundError
 from detectors.letterbox import Letterbox, Preprocessing
 from detectors.models import KNOWN_MODELS, PACKAGED_MODELS, cache_dir, download_model, resolve_model
 from detectors.nms import box_iou, nms
@@ -18,6 +18,7 @@ __all__ = [
     "COCO_CLASSES",
     "Detections",
     "FAMILIES",
+    "InputSizeError",
     "KNOWN_MODELS",
     "Letterbox",
     "ModelError",

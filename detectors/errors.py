@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["ModelError", "ModelNotFoundError"]
+__all__ = ["InputSizeError", "ModelError", "ModelNotFoundError"]
 
 
 class ModelError(ValueError):
@@ -11,3 +11,8 @@ class ModelError(ValueError):
 
 class ModelNotFoundError(FileNotFoundError):
     """No model file where one was looked for; the message is one line saying where to put it."""
+
+
+class InputSizeError(ModelError):
+    """A model that does not run at the input size asked of it (``OnnxDetector(minimal_padding=True)`` on an export
+    whose graph holds its input size, e.g. a reshape to a fixed grid)."""

@@ -6,7 +6,7 @@ import ast
 import logging
 import os
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 import cv2
@@ -14,7 +14,7 @@ import numpy as np
 
 from detectors.classes import COCO_CLASSES, coerce_names, names_from_metadata, read_names_file
 from detectors.decoders import FAMILIES, PREPROCESSING, OutputLayout, decode, recognise_layout
-from detectors.errors import ModelError
+from detectors.errors import InputSizeError, ModelError
 from detectors.letterbox import Letterbox, Preprocessing, check_image, letterbox
 from detectors.models import resolve_model
 from detectors.nms import nms
@@ -60,6 +60,132 @@ def _static(dim: object) -> int | None:
     return int(dim) if isinstance(dim, (int, np.integer)) and int(dim) > 0 else None
 
 
+def _free_image_dims(source: str | bytes, input_name: str, axes: tuple[int, int]) -> bytes:
+    """The serialized model with the height and width axes of its input ``input_name`` declared free (named
+    ``height`` and ``width``), its outputs' sizes unknown (their rank kept) and the shapes the export recorded for
+    its inner tensors (``graph.value_info``) dropped, for ONNX Runtime to infer them again at each input size. Weights, operators and
+    every other field are copied through byte for byte.
+
+    Done on the protobuf wire format (ONNX's ``ModelProto``: graph = field 7; ``GraphProto``: input 11, output 12,
+    value_info 13; ``ValueInfoProto``: name 1, type 2; ``TypeProto``: tensor_type 1; its shape 2, whose dims are
+    field 1; ``Dimension``: dim_value 1, dim_param 2), not with the ``onnx`` package: importing that takes half a
+    second (its ``ml_dtypes``), a start-up a camera pipeline should not pay for three fields.
+    """
+    data = Path(source).read_bytes() if isinstance(source, (str, os.PathLike)) else bytes(source)
+
+    def tensor_type(value_info: bytes, edit: Callable[[list[_Field]], list[_Field]]) -> bytes:
+        fields = _pb_fields(value_info)
+        for i, (num, wire, raw) in enumerate(fields):
+            if num == 2 and wire == 2:  # ValueInfoProto.type
+                kinds = _pb_fields(raw)
+                for j, (knum, kwire, kraw) in enumerate(kinds):
+                    if knum == 1 and kwire == 2:  # TypeProto.tensor_type
+                        kinds[j] = (knum, kwire, _pb_encode(edit(_pb_fields(kraw))))
+                fields[i] = (num, wire, _pb_encode(kinds))
+        return _pb_encode(fields)
+
+    def free(tensor: list[_Field]) -> list[_Field]:
+        out = []
+        for num, wire, raw in tensor:
+            if num == 2 and wire == 2:  # shape: its dims, the image axes renamed
+                dims = _pb_fields(raw)
+                where = [k for k, (dnum, dwire, _) in enumerate(dims) if dnum == 1 and dwire == 2]
+                for axis, name in zip(axes, (b"height", b"width")):
+                    if axis < len(where):
+                        dims[where[axis]] = (1, 2, _pb_encode([(2, 2, name)]))
+                raw = _pb_encode(dims)
+            out.append((num, wire, raw))
+        return out
+
+    def unknown(tensor: list[_Field]) -> list[_Field]:
+        return [(num, wire, _pb_encode((1, 2, b"") for dnum, _, _ in _pb_fields(raw) if dnum == 1))
+                if num == 2 and wire == 2 else (num, wire, raw) for num, wire, raw in tensor]
+
+    def name_of(value_info: bytes) -> str:
+        return next((raw.decode("utf-8", "replace") for num, wire, raw in _pb_fields(value_info)
+                     if num == 1 and wire == 2), "")
+
+    model = _pb_fields(data)
+    for i, (num, wire, raw) in enumerate(model):
+        if num != 7 or wire != 2:  # ModelProto.graph
+            continue
+        graph = []
+        for gnum, gwire, graw in _pb_fields(raw):
+            if gnum == 13:  # value_info: recorded shapes of inner tensors
+                continue
+            if gnum == 11 and gwire == 2 and name_of(graw) == input_name:
+                graw = tensor_type(graw, free)
+            elif gnum == 12 and gwire == 2:  # outputs: their sizes follow the input's (the rank is kept)
+                graw = tensor_type(graw, unknown)
+            graph.append((gnum, gwire, graw))
+        model[i] = (num, wire, _pb_encode(graph))
+    return _pb_encode(model)
+
+
+_Field = tuple[int, int, bytes]  # protobuf field: number, wire type, payload (a length-delimited one without its length)
+
+
+def _pb_varint(buf: bytes, i: int) -> tuple[int, int]:
+    value = shift = 0
+    while True:
+        if i >= len(buf):
+            raise ValueError("truncated protobuf varint")
+        byte = buf[i]
+        i += 1
+        value |= (byte & 0x7F) << shift
+        if byte < 0x80:
+            return value, i
+        shift += 7
+        if shift > 63:
+            raise ValueError("protobuf varint longer than 10 bytes")
+
+
+def _pb_fields(buf: bytes) -> list[_Field]:
+    """The fields of one protobuf message, in order (wire types 0, 1, 2 and 5; groups are not used by ONNX)."""
+    out: list[_Field] = []
+    i, n = 0, len(buf)
+    while i < n:
+        key, i = _pb_varint(buf, i)
+        num, wire = key >> 3, key & 7
+        start = i
+        if wire == 0:
+            _, i = _pb_varint(buf, i)
+        elif wire == 1:
+            i += 8
+        elif wire == 5:
+            i += 4
+        elif wire == 2:
+            length, start = _pb_varint(buf, i)
+            i = start + length
+        else:
+            raise ValueError(f"protobuf wire type {wire} (field {num}) is not ONNX's")
+        if i > n:
+            raise ValueError(f"truncated protobuf field {num}")
+        out.append((num, wire, buf[start:i]))
+    return out
+
+
+def _pb_encode(fields: Iterable[_Field]) -> bytes:
+    def varint(value: int) -> bytes:
+        out = bytearray()
+        while True:
+            byte = value & 0x7F
+            value >>= 7
+            if value:
+                out.append(byte | 0x80)
+            else:
+                out.append(byte)
+                return bytes(out)
+
+    parts = []
+    for num, wire, raw in fields:
+        parts.append(varint(num << 3 | wire))
+        if wire == 2:
+            parts.append(varint(len(raw)))
+        parts.append(raw)
+    return b"".join(parts)
+
+
 class OnnxDetector:
     """An exported ONNX detector (YOLOX, YOLOv5, YOLOv8/YOLO11, NanoDet, FastestDet, NMS-included).
 
@@ -87,10 +213,13 @@ class OnnxDetector:
         Input size for models with dynamic input dimensions (default: the size the model was exported
         with, metadata ``imgsz``, else 640); must match a fixed-size model.
     minimal_padding : bool
-        Dynamic-size models only: letterbox each image into the smallest multiple-of-32 rectangle around
-        its resized copy (the longer side scaled to ``input_size``), as Ultralytics' ``predict`` does
-        (``auto=True``), instead of padding it to the full square ``input_size``. Less padding to run
-        through (a 1242x375 image becomes 640x224 instead of 640x640), boxes as the exporter saw them.
+        Letterbox each image into the smallest multiple-of-32 rectangle around its resized copy (the longer
+        side scaled to ``input_size``), as Ultralytics' ``predict`` does (``auto=True``), instead of padding
+        it to the full square ``input_size``. Less padding to run through (a 1242x375 image becomes 640x224
+        instead of 640x640; with the 416x416 YOLOX-nano, 416x128 instead of 416x416: a third of the work),
+        the image at the same scale. An export with a fixed input size gets its height and width declared
+        free (the graph's declared shapes rewritten in memory; weights and operators untouched); a model that does not run on a smaller rectangle, or gives outputs its family does not
+        have there, is a ModelError.
     preprocessing : Preprocessing, optional
         Override the family's colour order, scaling, normalisation and letterbox placement.
     max_detections : int
@@ -193,9 +322,18 @@ class OnnxDetector:
         self.input_size: tuple[int, int] = size  # (width, height)
         if not isinstance(minimal_padding, (bool, np.bool_)):
             raise ValueError(f"`minimal_padding` must be True or False, got {minimal_padding!r}")  # noqa: TRY004
-        if minimal_padding and fixed[0] is not None and fixed[1] is not None:
-            raise ValueError(f"`minimal_padding` needs a model with dynamic input size; model {where} has the fixed "
-                             f"input size {fixed} (width, height)")
+        freed = bool(minimal_padding) and (fixed[0] is not None or fixed[1] is not None)
+        if freed:
+            # an export with a fixed size: its height and width declared free (a convolutional network runs at any
+            # multiple of its stride); checked below, after the dry run, on a smaller rectangle
+            axes = (2, 3) if self.nchw else (1, 2)
+            try:
+                self.session = ort.InferenceSession(_free_image_dims(source, inp.name, axes), sess_options=opts,
+                                                    providers=list(providers))
+            except Exception as exc:  # noqa: BLE001 (onnx's and onnxruntime's own classes)
+                first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+                raise InputSizeError(f"`minimal_padding`: model {where} (fixed input size {fixed[0]}x{fixed[1]}) cannot "
+                                 f"be loaded with a free input size: {first[:300]}; use minimal_padding=False") from None
         self.minimal_padding = bool(minimal_padding)
 
         # ---------------------------------------------------------------- class names given
@@ -233,6 +371,8 @@ class OnnxDetector:
             src = "`names`" if given_names else "ONNX metadata names"
             raise ModelError(f"{src} list {len(known)} classes but model {where} outputs {self.layout.num_classes}")
         self.class_names: tuple[str, ...] = known
+        if self.minimal_padding:
+            self._check_rectangle(where, hint, known, shapes if freed else None)
         self._allowed = self._parse_classes(classes)
         if preprocessing is None:
             fam = self.family
@@ -298,8 +438,35 @@ class OnnxDetector:
             raise ValueError("`classes` must name at least one class (or be None for all)")
         return np.unique(np.asarray(ids, np.int64))
 
-    def _blank_input(self) -> np.ndarray:
+    def _check_rectangle(self, where: object, hint: str, known: Sequence[str], full: list[tuple[int, ...]] | None) -> None:
+        """With ``minimal_padding``: the model must run on a rectangle smaller than ``input_size`` (the height
+        halved, rounded up to 32) and give the outputs its family has there (e.g. YOLOX's grid cells), and, an
+        export of a fixed size whose size was freed, outputs of another shape than at that size (``full``; every
+        family but "nms" predicts per grid cell), else InputSizeError. An export whose graph holds its input size (a reshape to a fixed grid) fails here, not
+        later on the first image that is not square."""
         w, h = self.input_size
+        probe = (w, max(32, -(-(h // 2) // 32) * 32))
+        if probe[1] == h:
+            probe = (max(32, -(-(w // 2) // 32) * 32), h)
+        import onnxruntime as ort
+
+        quiet = ort.RunOptions()
+        quiet.log_severity_level = 4  # the failure is reported here, not logged by onnxruntime as well
+        try:
+            raw = self.session.run(None, {self.input_name: self._blank_input(probe)}, quiet)
+            recognise_layout(self.output_names, [np.shape(r) for r in raw], [np.asarray(r).dtype for r in raw],
+                             (probe[1], probe[0]), metadata=self.metadata, hint=hint, family=self.family,
+                             num_names=len(known))
+            if full is not None and self.family != "nms" and [np.shape(r) for r in raw] == list(full):
+                raise InputSizeError(f"the same outputs {list(full)} as at {w}x{h}: the model does not read its "
+                                     "input's size")
+        except Exception as exc:  # noqa: BLE001 (onnxruntime's classes, ModelError from the layout)
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise InputSizeError(f"`minimal_padding`: model {where} does not run at input sizes other than {w}x{h} "
+                             f"(tried {probe[0]}x{probe[1]}: {first[:300]}); use minimal_padding=False") from None
+
+    def _blank_input(self, size: tuple[int, int] | None = None) -> np.ndarray:
+        w, h = size or self.input_size
         shape = (1, 3, h, w) if self.nchw else (1, h, w, 3)
         return np.zeros(shape, dtype=self._input_dtype)
 

@@ -173,12 +173,13 @@ class DetectorSpec:
     conf: float = 0.3
     iou: float = 0.45
     threads: int | None = None
+    square_input: bool = False
 
     def open(self, threads: int | None = None) -> Any:
-        from detectors import OnnxDetector
+        from stereo_classic.pipeline import open_detector
 
-        return OnnxDetector(self.path, conf_threshold=self.conf, iou_threshold=self.iou,
-                            threads=threads or self.threads)
+        return open_detector(self.path, square_input=self.square_input, conf_threshold=self.conf,
+                             iou_threshold=self.iou, threads=threads or self.threads)
 
 
 def scale_pair(left: np.ndarray, right: np.ndarray, rig: RectifiedRig, size: tuple[int, int]

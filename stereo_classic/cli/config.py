@@ -76,6 +76,7 @@ def _run_defaults() -> dict[str, tuple[Any, str]]:
         "conf": 0.3,
         "iou": 0.45,
         "classes": [],
+        "square_input": False,
         **{k: (list(v) if isinstance(v, tuple) else v) for k, v in fusion_options.items()},
         "seed": 0,
         "threads": 0,

@@ -49,7 +49,7 @@ from stereo_classic.outputs import (
     OutputFolder,
     SettingsMismatchError,
 )
-from stereo_classic.pipeline import PipelineResult, format_timings
+from stereo_classic.pipeline import PipelineResult, format_timings, open_detector
 from stereo_classic.runner import ON_ERROR, DetectorSpec, RunSummary, run_source
 
 #: Where frames can be processed (``--executor``).
@@ -120,6 +120,8 @@ def add_pipeline_options(p: Any) -> None:
     det.add_argument("--iou", type=float, default=None, help="NMS IoU threshold (default 0.45)")
     det.add_argument("--classes", nargs="+", default=None, metavar="LIST",
                      help="comma-separated class names to keep (e.g. car,person; spaces work too)")
+    det.add_argument("--square-input", action=argparse.BooleanOptionalAction, default=None,
+                     help="letterbox each frame into the detector's full square input, as exported (default: the smallest multiple-of-32 rectangle around the frame, the same scale and a third of the work on a KITTI frame; models that run at their own size only get the square anyway)")
 
     fus = p.add_argument_group("fusion")
     add_options(fus, FusionParams, show_defaults=FusionParams())
@@ -215,7 +217,8 @@ def _open_detector(cfg: dict[str, Any]) -> tuple[OnnxDetector | None, str | None
     # One detector thread unless --threads says otherwise: on 2 cores a second one ran it no faster (12.0 against
     # 12.1 ms a KITTI frame, alternated) for 5 ms more CPU, and the pipelined run has it beside the matcher.
     kwargs["threads"] = cfg["threads"] if cfg["threads"] > 0 else DETECTOR_THREADS
-    detector = OnnxDetector(path, **kwargs)  # a corrupt model raises ModelError: runtime failure (exit 1)
+    # a corrupt model raises ModelError: runtime failure (exit 1)
+    detector = open_detector(path, square_input=bool(cfg.get("square_input")), **kwargs)
     if cfg["classes"]:
         unknown = [c for c in cfg["classes"] if c not in detector.class_names]
         if unknown:
@@ -282,7 +285,8 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
         if cfg["executor"] == "dask":
             executor = stack.enter_context(_dask_executor(cfg, quiet))
             if detector is not None:  # each worker opens its own, once
-                detector = DetectorSpec(str(resolve_model(cfg["model"])), cfg["conf"], cfg["iou"])
+                detector = DetectorSpec(str(resolve_model(cfg["model"])), cfg["conf"], cfg["iou"],
+                                        square_input=bool(cfg["square_input"]))
         if "mcap" in cfg["save"]:  # the results as one ROS 2 recording (the bag extra)
             writer = _mcap_writer(writer, outdir)
             stack.callback(writer.close)
@@ -333,7 +337,8 @@ def _run_settings(args: argparse.Namespace, cfg: dict[str, Any], detector_name: 
                   sequence: bool) -> dict[str, Any]:
     """What decides the files of a run (recorded in ``run.json``; ``--resume`` must match): not threads, executor,
     --on-error, --max-frames or progress, which change how, not what."""
-    detector = {"model": detector_name, "conf": cfg["conf"], "iou": cfg["iou"]} if detector_name else {"model": None}
+    detector = ({"model": detector_name, "conf": cfg["conf"], "iou": cfg["iou"], "square_input": cfg["square_input"]}
+                if detector_name else {"model": None})
     return {"input": _input_settings(args), "outputs": kinds, "sequence": sequence, **detector,
             "classes": list(cfg["classes"]), **{k: cfg[k] for k in FUSION_OPTIONS}, "seed": cfg["seed"],
             "scale": cfg["scale"], "matcher": {k: v for k, v in cfg["matcher"].items()

@@ -10,7 +10,7 @@ import logging
 import numpy as np
 import pytest
 
-from detectors import ModelError, OnnxDetector, nms
+from detectors import InputSizeError, ModelError, OnnxDetector, nms
 from tests.helpers.onnx_detectors import constant_detector, shape_echo_detector
 
 
@@ -88,10 +88,14 @@ def test_minimal_padding_letterboxes_to_multiples_of_32(size, expected):
     np.testing.assert_allclose(dets.xyxy, np.clip(box, 0, [w, h, w, h]).astype(np.float32), atol=0.02)
 
 
-def test_minimal_padding_needs_a_dynamic_model():
+def test_minimal_padding_needs_a_model_that_runs_at_other_sizes():
+    # a fixed-size export gets its height and width freed; one whose outputs do not follow its input's size (here:
+    # constants) cannot be letterboxed into a smaller rectangle
     raw = _yolov8_raw([(100, 100, 40, 40)], [0.9])
-    with pytest.raises(ValueError, match="`minimal_padding` needs a model with dynamic input size"):
+    with pytest.raises(InputSizeError, match=r"`minimal_padding`: model <model bytes> does not run at input sizes "
+                                             r"other than 416x416 \(tried 416x224: the same outputs"):
         OnnxDetector(constant_detector({"output0": raw}), minimal_padding=True)
+    assert OnnxDetector(constant_detector({"output0": raw})).input_size == (416, 416)  # the square: fine
     with pytest.raises(ValueError, match="`minimal_padding` must be True or False"):
         OnnxDetector(shape_echo_detector(metadata=META), minimal_padding="yes")
 
@@ -101,3 +105,47 @@ def test_scores_that_are_logits_are_a_model_error_from_detect():
     det = OnnxDetector(constant_detector({"output0": raw}))  # the blank dry run does not look at scores
     with pytest.raises(ModelError, match="expected probabilities"):
         det.detect(np.zeros((416, 416, 3), np.uint8))
+
+
+def test_free_image_dims_rewrites_only_the_declared_shapes():
+    """The wire-format rewrite read back by the onnx package: the input's height and width named free, the outputs'
+    sizes unknown (rank kept), the inner tensors' recorded shapes gone, everything else (nodes, weights, metadata, opsets) equal."""
+    import onnx
+    from onnx import TensorProto, helper, numpy_helper
+
+    from detectors.onnx_detector import _free_image_dims
+
+    w = numpy_helper.from_array(np.ones((4, 3, 3, 3), np.float32), "w")
+    nodes = [helper.make_node("Conv", ["images", "w"], ["f"], pads=[1, 1, 1, 1]),
+             helper.make_node("Relu", ["f"], ["out"])]
+    graph = helper.make_graph(nodes, "g", [helper.make_tensor_value_info("images", TensorProto.FLOAT, [1, 3, 416, 416])],
+                              [helper.make_tensor_value_info("out", TensorProto.FLOAT, [1, 4, 416, 416])],
+                              initializer=[w],
+                              value_info=[helper.make_tensor_value_info("f", TensorProto.FLOAT, [1, 4, 416, 416])])
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 13)])
+    model.ir_version = 8
+    helper.set_model_props(model, {"imgsz": "[416, 416]"})
+    freed = onnx.load_model_from_string(_free_image_dims(model.SerializeToString(), "images", (2, 3)))
+    dims = freed.graph.input[0].type.tensor_type.shape.dim
+    assert [d.dim_value for d in dims[:2]] == [1, 3] and [d.dim_param for d in dims[2:]] == ["height", "width"]
+    out_dims = freed.graph.output[0].type.tensor_type.shape.dim
+    assert len(out_dims) == 4 and not any(d.HasField("dim_value") or d.HasField("dim_param") for d in out_dims)
+    assert len(freed.graph.value_info) == 0
+    assert freed.graph.output[0].type.tensor_type.elem_type == TensorProto.FLOAT
+    assert freed.graph.node == model.graph.node and freed.graph.initializer == model.graph.initializer
+    assert freed.metadata_props == model.metadata_props and freed.opset_import == model.opset_import
+    onnx.checker.check_model(freed)
+    import onnxruntime as ort  # the freed model runs at another size
+
+    out = ort.InferenceSession(freed.SerializeToString(), providers=["CPUExecutionProvider"]).run(
+        None, {"images": np.ones((1, 3, 128, 416), np.float32)})[0]
+    assert out.shape == (1, 4, 128, 416)
+
+
+def test_free_image_dims_refuses_what_is_not_protobuf():
+    from detectors.onnx_detector import _pb_fields
+
+    with pytest.raises(ValueError, match="truncated protobuf"):
+        _pb_fields(b"\x3a\x05ab")  # field 7, length 5, 2 bytes
+    with pytest.raises(ValueError, match="wire type 3"):
+        _pb_fields(b"\x0b")

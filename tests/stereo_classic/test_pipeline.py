@@ -122,6 +122,25 @@ def test_localizer_detector_by_path(yolox_nano, shared_data):
     with Localizer(scene.rig, str(yolox_nano), {"num_disparities": 80}, detector_options={"conf_threshold": 0.5}) as loc:
         result = loc(scene.left, scene.right)
     assert "motorcycle" in result.objects.labels
+    # the pipeline's detector letterboxes into the smallest rectangle (741x497 -> 416x288), not the 416 square
+    assert loc.detector.minimal_padding and loc.detector.input_size_for(741, 497) == (416, 288)
+
+
+def test_open_detector_minimal_padding_where_the_model_allows():
+    """open_detector: minimal padding by default; the square for ``square_input=True``, for an explicit
+    ``minimal_padding``, and for a model that runs at its own size only (here one whose outputs are constants)."""
+    from detectors import OnnxDetector
+    from stereo_classic.pipeline import open_detector
+    from tests.helpers.onnx_detectors import constant_detector, shape_echo_detector
+
+    echo = shape_echo_detector(metadata={"imgsz": "[640, 640]"})
+    assert open_detector(echo).input_size_for(1242, 375) == (640, 224)
+    assert open_detector(echo, square_input=True).input_size_for(1242, 375) == (640, 640)
+    assert open_detector(echo, minimal_padding=False).input_size_for(1242, 375) == (640, 640)
+    raw = np.zeros((1, 84, 8400), np.float32)
+    fixed = open_detector(constant_detector({"output0": raw}, input_shape=(1, 3, 640, 640)))
+    assert isinstance(fixed, OnnxDetector) and not fixed.minimal_padding
+    assert fixed.input_size_for(1242, 375) == (640, 640)
 
 
 def test_format_timings():

@@ -87,7 +87,7 @@ def test_demo_prints_the_table_and_writes_every_output(tmp_path, shared_models, 
     stdout = capsys.readouterr().out
     header, *rows = stdout.splitlines()[:2]
     assert header.split() == ["label", "confidence", "distance", "x", "(m)", "y", "(m)", "z", "(m)", "direction"]
-    assert rows[0].split()[:2] == ["motorcycle", "0.90"] and rows[0].split()[3] == "m"
+    assert rows[0].split()[:2] == ["motorcycle", "0.89"] and rows[0].split()[3] == "m"
     record = _check_outputs(out, "motorcycle_skimage", (500, 741))
     moto = [o for o in record["objects"] if o["label"] == "motorcycle"]
     assert len(moto) == 1 and moto[0]["status"] == "ok" and 1.5 < moto[0]["distance_m"] < 3.5
