@@ -39,7 +39,7 @@ from stereo_classic.matching import (
     StereoMatcher,
 )
 
-__all__ = ["STAGES", "Localizer", "PipelineResult", "format_timings", "open_detector"]
+__all__ = ["STAGES", "Localizer", "PipelineResult", "format_rate", "format_timings", "open_detector"]
 
 log = logging.getLogger(__name__)
 
@@ -353,6 +353,23 @@ class Localizer:
         (log.debug if warning.code in self._warned else log.warning)("%s", warning.message)
         self._warned.add(warning.code)
         return objects, (warning,)
+
+
+def format_rate(frames: int, wall_s: float, first_s: float | None, stages: str) -> str:
+    """The frames/s line of ``run`` and ``guide``: frames over the wall clock of the whole frame loop (``stages``
+    says what it holds), and, from two frames on, the rate after the first frame, whose time (``first_s``, from the
+    loop's start to its record) includes one-time work: the kernels' compiled code loaded on their first call (about
+    0.3 s, numba), the buffers, the detector's first run. A camera that runs for minutes gets the second rate.
+
+    >>> format_rate(30, 2.5, 0.4, "reading, matching")
+    '30 frame(s) in 2.5 s: 12.00 frames/s (wall clock of the whole frame loop: reading, matching); after the first frame (0.40 s, one-time loading included): 13.81 frames/s'
+    """
+    text = f"{frames} frame(s) in {wall_s:.1f} s: {frames / wall_s if wall_s > 0 else 0.0:.2f} frames/s (wall clock of " \
+           f"the whole frame loop: {stages})"
+    if first_s is not None and frames >= 2 and wall_s > first_s:
+        text += (f"; after the first frame ({first_s:.2f} s, one-time loading included): "
+                 f"{(frames - 1) / (wall_s - first_s):.2f} frames/s")
+    return text
 
 
 def format_timings(timings: Iterable[Mapping[str, float]], *, stages: Iterable[str] | None = None,

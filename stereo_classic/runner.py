@@ -31,6 +31,7 @@ import logging
 import signal
 import sys
 import threading
+import time
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass, field
@@ -91,6 +92,8 @@ class RunSummary:
         Scenes read but not measured (no calibration), one line each.
     workers : dict
         Per worker (executor "dask"): ``{address: [frames, busy seconds]}``.
+    first_written : float or None
+        ``time.perf_counter()`` when the first frame was written (None: none was).
     """
 
     frames: int = 0
@@ -102,6 +105,7 @@ class RunSummary:
     failed: list[tuple[str, str]] = field(default_factory=list)
     skipped_scenes: list[str] = field(default_factory=list)
     workers: dict[str, list[float]] = field(default_factory=dict)
+    first_written: float | None = None
 
 
 def _raise_signal(signum: int) -> None:
@@ -359,6 +363,8 @@ class _Collector:
             with _DeferInterrupt():
                 self.writer.write(out.name, out.result, out.rig, out.record)
                 summary.frames += 1  # counted with the write, before a held Ctrl-C is raised
+                if summary.first_written is None:
+                    summary.first_written = time.perf_counter()
                 summary.timings_ms.append(out.result.timings_ms)
                 summary.objects += len(out.result.objects)
             if out.worker is not None:

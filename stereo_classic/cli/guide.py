@@ -38,7 +38,7 @@ from stereo_classic.guide import Guide, GuideInputError, GuideParams
 from stereo_classic.guide.render import draw_birdseye, draw_overlay
 from stereo_classic.guide.speech import Speaker
 from stereo_classic.outputs.files import JsonlSink
-from stereo_classic.pipeline import Localizer, format_timings
+from stereo_classic.pipeline import Localizer, format_rate, format_timings
 from stereo_classic.runner import scale_pair
 
 __all__ = ["EVENTS_NAME", "GUIDE_SAVE", "add_parser", "func"]
@@ -172,6 +172,7 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
     timings: list[dict[str, float]] = []
     frames = events = 0
     start = time.monotonic()
+    first_done: float | None = None  # when the first frame was guided
     bar = tqdm(total=len(source) or None, unit="frame", file=sys.stderr, leave=False,
                disable=quiet or args.no_progress or not sys.stderr.isatty())
     interrupted = False
@@ -182,7 +183,7 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
     before: tuple[Any, ...] | None = None  # (frame, rig, result future) started, not yet guided
 
     def guided(frame: Any, rig: calib.RectifiedRig, future: Any) -> None:
-        nonlocal frames, events
+        nonlocal frames, events, first_done
         try:
             result = future.result()
         except ValueError as exc:
@@ -211,6 +212,8 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
             io.write_image(outdir / f"{frame.name}_{kind}.png", picture)
         timings.append({**result.timings_ms, "guide": guide_ms})
         frames += 1
+        if first_done is None:
+            first_done = time.monotonic()
         events += len(gframe.events)
         bar.update(1)
 
@@ -261,8 +264,8 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
     wall = time.monotonic() - start
     if timings and not quiet:
         print(format_timings(timings, rate=False), file=sys.stderr)
-        print(f"{frames} frame(s) in {wall:.1f} s: {frames / wall:.2f} frames/s (wall clock of the whole frame loop: "
-              "reading, matching, detecting, checking, guiding, writing)", file=sys.stderr)
+        print(format_rate(frames, wall, None if first_done is None else first_done - start,
+                          "reading, matching, detecting, checking, guiding, writing"), file=sys.stderr)
     text = f"{frames} frame(s), {events} event(s), events in {outdir / EVENTS_NAME}"
     if speaker.written:
         text += f", {len(speaker.written)} WAV file(s) in {args.speak_to}"

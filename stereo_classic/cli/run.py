@@ -49,7 +49,7 @@ from stereo_classic.outputs import (
     OutputFolder,
     SettingsMismatchError,
 )
-from stereo_classic.pipeline import PipelineResult, format_timings, open_detector
+from stereo_classic.pipeline import PipelineResult, format_rate, format_timings, open_detector
 from stereo_classic.runner import ON_ERROR, DetectorSpec, RunSummary, run_source
 
 #: Where frames can be processed (``--executor``).
@@ -299,7 +299,8 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
             on_error=cfg["on_error"], executor=executor, read_ahead=cfg["read_ahead"],
             pipeline=cfg["pipeline"])
         wall = time.perf_counter() - started
-    return _report(summary, source, outdir, quiet, wall, flagged)
+    first = None if summary.first_written is None else summary.first_written - started
+    return _report(summary, source, outdir, quiet, wall, flagged, first)
 
 
 def _mcap_writer(writer: FrameWriter, outdir: Path) -> Any:
@@ -359,7 +360,7 @@ def _dask_executor(cfg: dict[str, Any], quiet: bool) -> Any:
 
 
 def _report(summary: RunSummary, source: Source, outdir: Path, quiet: bool, wall: float,
-            flagged: dict[str, list[str]] | None = None) -> int:
+            flagged: dict[str, list[str]] | None = None, first: float | None = None) -> int:
     """The end of a run: warnings, the timing table (per worker for Dask), the summary line, the exit code.
 
     ``flagged`` maps the frame checks' warning codes to the frames they came from: frames whose pair is swapped
@@ -374,8 +375,8 @@ def _report(summary: RunSummary, source: Source, outdir: Path, quiet: bool, wall
             print(f"worker {address}: {int(frames)} frame(s), {frames / busy if busy else 0:.2f} frames/s busy, "
                   f"{busy:.1f} s", file=sys.stderr)
         if wall > 0:
-            print(f"{summary.frames} frame(s) in {wall:.1f} s: {summary.frames / wall:.2f} frames/s (wall clock of the "
-                  "whole frame loop: reading, matching, detecting, checking, writing)", file=sys.stderr)
+            print(format_rate(summary.frames, wall, first, "reading, matching, detecting, checking, writing"),
+                  file=sys.stderr)
     text = f"{summary.frames} frame(s), {summary.objects} object(s), outputs in {outdir}"
     if summary.skipped:
         text += f"; {summary.skipped} finished frame(s) skipped (--resume)"

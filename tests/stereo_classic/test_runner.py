@@ -82,7 +82,9 @@ def test_scale_and_errors(tmp_path, pairs):
     seen = []
     summary = run_source(PairSource(files[:1]), FrameWriter(tmp_path, save=("pfm",)), params_for=_params, rig=rig,
                          scale=0.5, on_frame=lambda frame, result: seen.append(result.disparity.disparity.shape))
-    assert summary == RunSummary(frames=1, objects=0, skipped=0, interrupted=False, timings_ms=summary.timings_ms)
+    assert summary == RunSummary(frames=1, objects=0, skipped=0, interrupted=False, timings_ms=summary.timings_ms,
+                                 first_written=summary.first_written)
+    assert summary.first_written is not None
     assert seen == [(80, 120)]
     with pytest.raises(ValueError, match="no calibration"):
         run_source(PairSource(files[:1]), FrameWriter(tmp_path / "x"), params_for=_params)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 from pathlib import Path
 
@@ -225,6 +226,9 @@ def test_side_by_side_video(tmp_path, capsys):
     assert "3 frame(s)" in err and "frames/s" in err
     rates = [line for line in err.splitlines() if "frames/s" in line]  # one rate, saying what it measures
     assert len(rates) == 1 and "wall clock of the whole frame loop" in rates[0]
+    # and the rate after the first frame, whose time holds the one-time loading
+    assert re.search(r"; after the first frame \(\d+\.\d\d s, one-time loading included\): \d+\.\d\d frames/s$",
+                     rates[0]), rates[0]
     names = [json.loads(line)["frame"] for line in (out / "objects.jsonl").read_text().splitlines()]
     assert names == ["frame_000000", "frame_000001", "frame_000002"]
 
