@@ -54,6 +54,7 @@ from stereo_classic.matching._kernels.cost import (
     largest_p2,
     pixel_penalties,
     row_cost,
+    scaled_penalty,
 )
 from stereo_classic.matching._kernels.intrinsics import (
     add16,
@@ -299,7 +300,7 @@ def cross_penalty(p1, scale, textured):  # pragma: no cover - numba
     """P1 of a path that crosses rows at a pixel, int16: ``p1`` times its ``weak_texture_scale`` (sixteenths) when
     ``textured``, else ``p1`` as given."""
     if textured:
-        return np.int16((p1 * np.int32(scale) + 8) >> 4)
+        return scaled_penalty(p1, scale)
     return np.int16(p1)
 
 

@@ -347,6 +347,19 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
     return CostImages(left, lcode, rcode, lsob, lint, rsob, rint, scale, *feats)
 
 
+def _cost_settings(cost: str, dmin: int, n_disp: int, block_size: int, census_window: tuple[int, int], p2_room: int,
+                   outside_cost: int | None) -> CostSettings:
+    """The row cost's settings (``sgm_match`` and ``cost_volume`` alike): the SAD scaling and the invalid cost leave
+    room for ``p2_room``, the largest P2 at a pixel; ``outside_cost`` (None: such a match never wins) is scaled like
+    the cost and never above its largest value."""
+    kind = _KIND[cost]
+    shift, cmax = cost_scale(cost, block_size, census_window, p2_room)
+    return CostSettings(kind=kind, min_disparity=dmin, half_block=block_size // 2 if kind != CENSUS else 0,
+                        shift=shift, cmax=cmax, invalid_cost=cmax + 2 * (p2_room >> shift) + 1,
+                        num_disparities=n_disp, grad_mul=grad_mul(block_size) if cost == "census+grad" else 0,
+                        outside_cost=-1 if outside_cost is None else min(int(outside_cost) >> shift, cmax))
+
+
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
          path_mask, adaptive_p2, uniqueness, lr_check, subpixel, threads, select=True, keep_sums=False,
          workspace=None, return_right=False, lr_mode="full", scratch_output=False, weak_texture_gain=1.0,
@@ -365,12 +378,9 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     # the SAD cost's scaling and the invalid cost leave room for the largest P2 at a pixel (times the weak-texture
     # factor): the costs are those of cost_volume(p2=p2_top)
     p2_top = largest_p2(p2, weak_texture_gain)
-    shift, cmax = cost_scale(cost, block_size, census_window, p2_top)
+    cost_settings = _cost_settings(cost, dmin, n_disp, block_size, census_window, p2_top, outside_cost)
+    shift = cost_settings.shift
     p1s, p2s = int(p1) >> shift, int(p2) >> shift
-    cost_settings = CostSettings(kind=kind, min_disparity=dmin, half_block=h, shift=shift, cmax=cmax,
-                                 invalid_cost=cmax + 2 * (p2_top >> shift) + 1, num_disparities=n_disp,
-                                 grad_mul=grad_mul(block_size) if cost == "census+grad" else 0,
-                                 outside_cost=-1 if outside_cost is None else min(int(outside_cost) >> shift, cmax))
     cost_settings, channels = with_features(cost_settings, features, feature_similarity, H, W)
     timings = {}
 
@@ -581,12 +591,7 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
     H, W = left.shape
     n_disp = int(num_disparities)
     D = padded_disparities(n_disp)  # as the one-sweep kernel holds them
-    shift, cmax = cost_scale(cost, block_size, census_window, int(p2))
-    settings = CostSettings(kind=kind, min_disparity=int(min_disparity),
-                            half_block=block_size // 2 if kind != CENSUS else 0, shift=shift, cmax=cmax,
-                            invalid_cost=cmax + 2 * (int(p2) >> shift) + 1, num_disparities=n_disp,
-                            grad_mul=grad_mul(block_size) if cost == "census+grad" else 0,
-                            outside_cost=-1 if outside_cost is None else min(int(outside_cost) >> shift, cmax))
+    settings = _cost_settings(cost, int(min_disparity), n_disp, block_size, census_window, int(p2), outside_cost)
     settings, channels = with_features(settings, features, feature_similarity, H, W)
     images = _prepare_cost(left, right, cost, census_window, features=features)
     out = np.empty((H, W, D), np.int16)

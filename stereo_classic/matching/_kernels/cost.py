@@ -66,6 +66,7 @@ __all__ = [
     "largest_p2",
     "max_penalty_scale",
     "pixel_penalties",
+    "scaled_penalty",
 ]
 
 SOBEL_CAP = 31
@@ -550,7 +551,12 @@ def largest_p2(p2: int, gain: float) -> int:
 
 
 @njit(cache=True, nogil=True, inline="always")
+def scaled_penalty(p, scale):  # pragma: no cover - numba
+    """A penalty (int32) of a pixel as int16: times its ``weak_texture_scale`` (sixteenths), rounded."""
+    return np.int16((p * np.int32(scale) + 8) >> 4)
+
+
+@njit(cache=True, nogil=True, inline="always")
 def pixel_penalties(p1, p2, scale):  # pragma: no cover - numba
     """(P1, P2) of a pixel as int16: the int32 penalties times its ``weak_texture_scale`` (sixteenths), rounded."""
-    s = np.int32(scale)
-    return np.int16((p1 * s + 8) >> 4), np.int16((p2 * s + 8) >> 4)
+    return scaled_penalty(p1, scale), scaled_penalty(p2, scale)
