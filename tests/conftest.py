@@ -50,3 +50,17 @@ def yolox_nano(shared_models: Path) -> Path:
     if not path.is_file():
         pytest.skip(f"{path} not present")
     return path
+
+
+@pytest.fixture
+def sigint_delivered():
+    """SIGINT raises KeyboardInterrupt during the test, as at a terminal. A job started in the background (``nohup``,
+    ``&`` without job control, as some CI runners start their scripts) inherits SIGINT *ignored*, and the runner
+    rightly leaves an ignored signal alone; a test of what Ctrl-C does must not depend on how it was started."""
+    import signal
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)

@@ -69,7 +69,7 @@ def test_on_error_skip_on_the_command_line_names_the_frame_and_exits_1(tmp_path,
     assert _lines(tmp_path / "o") == ["f0_L", "f1_L", "f3_L"]
 
 
-def test_ctrl_c_during_a_write_counts_the_written_frame(tmp_path, pairs, monkeypatch):
+def test_ctrl_c_during_a_write_counts_the_written_frame(tmp_path, pairs, monkeypatch, sigint_delivered):
     files, rig, _ = pairs
     out = tmp_path / "o"
     writer = FrameWriter(out, sequence=True)
@@ -87,7 +87,7 @@ def test_ctrl_c_during_a_write_counts_the_written_frame(tmp_path, pairs, monkeyp
     assert summary.frames == len(_lines(out)) == 2
 
 
-def test_a_ctrl_c_discarded_where_it_was_raised_still_ends_the_run(tmp_path, pairs, monkeypatch):
+def test_a_ctrl_c_discarded_where_it_was_raised_still_ends_the_run(tmp_path, pairs, monkeypatch, sigint_delivered):
     # A KeyboardInterrupt is raised wherever the main thread is; inside a finalizer (__del__, a file closed by the
     # garbage collector) Python discards it. The run remembers the signal and ends at the next frame boundary.
     from stereo_classic import pipeline

@@ -349,9 +349,8 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
 
 def _cost_settings(cost: str, dmin: int, n_disp: int, block_size: int, census_window: tuple[int, int], p2_room: int,
                    outside_cost: int | None) -> CostSettings:
-    """The row cost's settings (``sgm_match`` and ``cost_volume`` alike): the SAD scaling and the invalid cost leave
-    room for ``p2_room``, the largest P2 at a pixel; ``outside_cost`` (None: such a match never wins) is scaled like
-    the cost and never above its largest value."""
+    """The row cost's settings (``sgm_match`` and ``cost_volume`` alike): SAD scaling and invalid cost leave room for
+    ``p2_room``, the largest P2 at a pixel; ``outside_cost`` (None: never wins) scaled like the cost, at most cmax."""
     kind = _KIND[cost]
     shift, cmax = cost_scale(cost, block_size, census_window, p2_room)
     return CostSettings(kind=kind, min_disparity=dmin, half_block=block_size // 2 if kind != CENSUS else 0,

@@ -172,7 +172,7 @@ def test_ctrl_c_leaves_finished_frames_complete_and_resume_finishes(tmp_path, pa
     assert (out / "objects.jsonl").read_bytes() == (fresh / "objects.jsonl").read_bytes()
 
 
-def test_ctrl_c_while_writing_finishes_that_frame_first(tmp_path, pairs, monkeypatch):
+def test_ctrl_c_while_writing_finishes_that_frame_first(tmp_path, pairs, monkeypatch, sigint_delivered):
     from stereo_classic import io
 
     out = tmp_path / "o"
