@@ -175,7 +175,8 @@ class FrameChecker:
     def _look(self, halves: _Halves, window: tuple[int, int, int, int] | None = None) -> DisparityMap | None:
         """The frame's half-size look (made once, kept on ``halves``), or None when the half-size images are too
         small for its range. Fixed settings, whatever the caller's (census cost with its default penalties, the
-        full 1 px left-right check, no hole filling): every disparity a measured, left-right consistent one.
+        full 1 px left-right check, no hole filling, no median): every disparity a measured, left-right consistent
+        one, as the checks' shares and thresholds were measured.
         When the pair check cleared the pair on the frame's own match (``halves.cleared``) the look covers the
         given order's side only (from the range's start at half size, twice the reach): the range check reads
         nothing else, and a third fewer disparities cost a third less. ``window`` (u0, v0, u1, v1, full-size
@@ -191,7 +192,7 @@ class FrameChecker:
                     low, num = math.floor(self.params.min_disparity / 2), self.params.num_disparities
                 matcher = StereoMatcher(self.params.replace(
                     min_disparity=low, num_disparities=num, cost="census", p1=None, p2=None, weak_texture_gain=1.0,
-                    lr_check=1.0, lr_mode="full", fill_holes=False))
+                    lr_check=1.0, lr_mode="full", fill_holes=False, median_filter=False))
                 if halves.cleared:
                     self._range_matcher = matcher
                 else:

@@ -24,7 +24,14 @@ from stereo_classic.matching import learned
 from stereo_classic.matching.border import confirm_left_border, left_border_columns, strip_width
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching.params import SGMParams
-from stereo_classic.matching.postprocess import _speckle_and_fill, fill_bytes, speckle_bytes, speckle_fill_bytes
+from stereo_classic.matching.postprocess import (
+    _speckle_and_fill,
+    fill_bytes,
+    median_bytes,
+    median_measured,
+    speckle_bytes,
+    speckle_fill_bytes,
+)
 from stereo_classic.matching.result import DisparityMap
 
 __all__ = [
@@ -266,6 +273,8 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
     else:
         post += speckle_bytes(height, width) if params.speckle_size > 0 else 0
         post += fill_bytes(height, width) if params.fill_holes else 0
+    if params.median_filter:
+        post += median_bytes(height, width)
     strip = 0
     if params.border_check and params.lr_check is not None and params.effective_border_reach > 0:  # the mirrored strip
         columns = min(width, math.ceil(params.effective_border_reach * params.num_disparities))
@@ -381,6 +390,8 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         disparity, max_size=params.speckle_size, max_diff=params.speckle_range, fill=params.fill_holes,
         threads=threads, workspace=workspace,  # winners lie in the range, subpixel within 0.5 px of one
         bound=max(abs(params.min_disparity), abs(params.min_disparity + params.num_disparities)) + 1.0)
+    if params.median_filter:  # the measured pixels only: the fill above read them as the checks left them
+        disparity = median_measured(disparity, filled_mask, threads=threads, workspace=workspace)
     border = reach < params.num_disparities  # the full range does not fit: matched with the range that does
     t3 = time.perf_counter()
 

@@ -212,6 +212,21 @@ def test_the_look_is_the_same_for_any_thread_count(near_scene, order):
             c.close()
 
 
+def test_the_look_has_its_own_settings_whatever_the_callers(near_scene):
+    """The look's settings are fixed (the checks' shares and thresholds were measured with them): a caller's
+    ``median_filter`` or ``fill_holes`` changes the frame's match, not the look."""
+    left, right, _ = near_scene
+    looks = []
+    for extra in ({}, {"median_filter": True, "fill_holes": False, "speckle_size": 100}):
+        checker = FrameChecker(SGMParams(num_disparities=96, **extra))
+        try:
+            looks.append(checker._look(checker.halves(left, right)))
+        finally:
+            checker.close()
+    assert not looks[1].params.median_filter and not looks[1].params.fill_holes
+    np.testing.assert_array_equal(looks[0].disparity, looks[1].disparity)
+
+
 def test_a_range_symmetric_about_zero_cannot_tell_the_order(near_scene):
     """With disparities from -48 to 47 both orders have the same ones: the pair check says nothing rather than
     guess (the range check still looks)."""

@@ -306,6 +306,29 @@ class TestComputeDisparity:
         assert sparse.validity["filled"] == 0
 
 
+    def test_median_filter_changes_the_measurements_only(self):
+        """``median_filter``: the measured pixels take the lower median of their measured 3x3 neighbours (the
+        numpy definition of tests/.../test_postprocess.py, on the map without it), the unknown ones stay unknown
+        and the filled ones keep the fill's values, which read the measurements before the median."""
+        from tests.stereo_classic.matching.test_postprocess import _median_reference
+
+        left_f = _texture((80, 160), seed=3)
+        yy, xx = np.mgrid[0:80, 0:160]
+        disparity = (8 + 6 * xx / 160 + 3 * yy / 80).astype(np.float32)  # slanted: subpixel steps to smooth
+        disparity[20:50, 60:100] += 5  # a nearer box: occlusions, holes for the fill
+        right_f = _warp_right(left_f, disparity)
+        left, right = np.clip(left_f, 0, 255).astype(np.uint8), np.clip(right_f, 0, 255).astype(np.uint8)
+        for threads in (1, 2):
+            off = compute_disparity(left, right, num_disparities=32, threads=threads)
+            on = compute_disparity(left, right, num_disparities=32, threads=threads, median_filter=True)
+            assert 0 < on.validity["filled"] == off.validity["filled"] and on.validity == off.validity
+            np.testing.assert_array_equal(np.isnan(on.disparity), np.isnan(off.disparity))
+            np.testing.assert_array_equal(on.filled, off.filled)
+            np.testing.assert_array_equal(on.filled_disparity[on.filled], off.filled_disparity[off.filled])
+            np.testing.assert_array_equal(on.disparity, _median_reference(off.disparity, np.zeros(left.shape, bool)))
+            assert not np.array_equal(on.disparity, off.disparity, equal_nan=True)
+
+
 class TestSyntheticAccuracy:
     """Known-disparity pairs through the public API."""
 
@@ -495,6 +518,7 @@ class TestEstimateMemory:
         assert base < double and base < 375 * 1242 * 64 * 2 <= eight  # 3 paths: no sum volume; 8 paths keep one
         assert estimate_memory((375, 1242, 3), SGMParams(num_disparities=64)) == base
         assert estimate_memory((375, 1242), SGMParams(num_disparities=64, fill_holes=False)) < base
+        assert estimate_memory((375, 1242), SGMParams(num_disparities=64, median_filter=True)) > base
         assert estimate_memory((375, 1242), SGMParams(num_disparities=64), dtype=np.float32) > base
         assert estimate_memory((375, 1242)) == base  # default params: 64 disparities
 

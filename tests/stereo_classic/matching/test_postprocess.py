@@ -220,6 +220,8 @@ def test_postprocess_stays_within_its_memory_estimate():
     from stereo_classic.matching.postprocess import (
         _speckle_fill_counted,
         fill_bytes,
+        median_bytes,
+        median_measured,
         speckle_bytes,
         speckle_fill_bytes,
     )
@@ -231,9 +233,11 @@ def test_postprocess_stays_within_its_memory_estimate():
     filter_speckles(d[:50], max_size=10, max_diff=1.0)  # first-call allocations out of the way
     fill_holes(d[:50])
     _speckle_fill_counted(d[:50], max_size=10, max_diff=1.0)
+    median_measured(d[:50])
     for func, budget in ((lambda: filter_speckles(d, max_size=10, max_diff=1.0), speckle_bytes(*d.shape)),
                          (lambda: fill_holes(d), fill_bytes(*d.shape)),
-                         (lambda: _speckle_fill_counted(d, max_size=10, max_diff=1.0), speckle_fill_bytes(*d.shape))):
+                         (lambda: _speckle_fill_counted(d, max_size=10, max_diff=1.0), speckle_fill_bytes(*d.shape)),
+                         (lambda: median_measured(d), median_bytes(*d.shape))):
         tracemalloc.start()
         try:
             base = tracemalloc.get_traced_memory()[0]
@@ -264,3 +268,61 @@ def test_filter_speckles_refuses_maps_beyond_its_int32_labels(monkeypatch):
     with pytest.raises(ValueError, match="`disparity` has 16 pixels; the speckle filter labels at most 15"):
         filter_speckles(np.zeros((4, 4), np.float32), max_size=3, max_diff=1.0)
     filter_speckles(np.zeros((3, 5), np.float32), max_size=3, max_diff=1.0)  # 15 pixels: fine
+
+
+def _median_reference(d, holes):
+    """The 3x3 median of the measurements written with numpy: every measured pixel (finite, not a hole) the
+    ((n - 1) // 2)-th smallest of the n measured values of its 3x3 neighbourhood; every other pixel as given."""
+    h, w = d.shape
+    measured = np.where(holes | ~np.isfinite(d), np.nan, d).astype(np.float32)
+    padded = np.pad(measured, 1, constant_values=np.nan)
+    stack = np.stack([padded[i:i + h, j:j + w] for i in range(3) for j in range(3)])
+    n = np.isfinite(stack).sum(axis=0)
+    k = np.maximum((n - 1) // 2, 0)
+    lower = np.take_along_axis(np.sort(stack, axis=0), k[None], axis=0)[0]  # NaN sorts last
+    return np.where(np.isfinite(measured), lower, d).astype(np.float32)
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_median_of_the_measurements_equals_the_numpy_definition(threads):
+    from stereo_classic.matching.postprocess import median_measured
+
+    rng = np.random.default_rng(11)
+    for _ in range(60):
+        h, w = int(rng.integers(1, 130)), int(rng.integers(1, 40))
+        d = rng.uniform(-5, 60, (h, w)).astype(np.float32)
+        d[rng.random((h, w)) < rng.uniform(0, 0.8)] = np.nan
+        holes = ~np.isfinite(d) & (rng.random((h, w)) < 0.5)
+        d[holes] = rng.uniform(0, 60, int(holes.sum())).astype(np.float32)  # the fill's values: never read
+        np.testing.assert_array_equal(median_measured(d, holes, threads=threads), _median_reference(d, holes))
+        plain = np.where(holes, np.nan, d).astype(np.float32)
+        np.testing.assert_array_equal(median_measured(plain, threads=threads),
+                                      _median_reference(plain, np.zeros((h, w), bool)))
+
+
+def test_median_of_the_measurements_outvotes_one_pixel_and_keeps_a_step():
+    from stereo_classic.matching.postprocess import median_measured
+
+    d = np.full((9, 12), 20.0, np.float32)
+    d[:, 6:] = 10.0  # a depth step: each side keeps its value up to the edge
+    d[4, 2] = 35.0  # one wrong winner
+    d[0, 0] = np.nan
+    out = median_measured(d)
+    assert out[4, 2] == 20.0 and np.isnan(out[0, 0])
+    np.testing.assert_array_equal(out[:, 5], 20.0)  # lower median of 20,20,20,20,20,20,10,10,10 (or fewer)
+    np.testing.assert_array_equal(out[:, 6], 10.0)
+    assert out.dtype == np.float32 and out is not d
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(threads=0), "`threads` must be a positive integer"),
+    (dict(holes=np.zeros((3, 3), np.uint8)), "`holes` must be a \\(H, W\\) bool array"),
+    (dict(holes=np.zeros((2, 3), bool)), "`holes` must be a \\(H, W\\) bool array"),
+])
+def test_median_of_the_measurements_names_bad_arguments(kwargs, match):
+    from stereo_classic.matching.postprocess import median_measured
+
+    with pytest.raises(ValueError, match=match):
+        median_measured(np.zeros((3, 3), np.float32), **kwargs)
+    with pytest.raises(ValueError, match="`disparity` must be a \\(H, W\\) float32 array"):
+        median_measured(np.zeros((3, 3), np.float64))
