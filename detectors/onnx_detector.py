@@ -63,8 +63,8 @@ def _static(dim: object) -> int | None:
 def _free_image_dims(source: str | bytes, input_name: str, axes: tuple[int, int]) -> bytes:
     """The serialized model with the height and width axes of its input ``input_name`` declared free (named
     ``height`` and ``width``), its outputs' sizes unknown (their rank kept) and the shapes the export recorded for
-    its inner tensors (``graph.value_info``) dropped, for ONNX Runtime to infer them again at each input size. Weights, operators and
-    every other field are copied through byte for byte.
+    its inner tensors (``graph.value_info``) dropped, for ONNX Runtime to infer them again at each input size.
+    Weights, operators and every other field are copied through byte for byte.
 
     Done on the protobuf wire format (ONNX's ``ModelProto``: graph = field 7; ``GraphProto``: input 11, output 12,
     value_info 13; ``ValueInfoProto``: name 1, type 2; ``TypeProto``: tensor_type 1; its shape 2, whose dims are
@@ -218,8 +218,9 @@ class OnnxDetector:
         it to the full square ``input_size``. Less padding to run through (a 1242x375 image becomes 640x224
         instead of 640x640; with the 416x416 YOLOX-nano, 416x128 instead of 416x416: a third of the work),
         the image at the same scale. An export with a fixed input size gets its height and width declared
-        free (the graph's declared shapes rewritten in memory; weights and operators untouched); a model that does not run on a smaller rectangle, or gives outputs its family does not
-        have there, is a ModelError.
+        free (the graph's declared shapes rewritten in memory; weights and operators untouched); a model that
+        does not run on a smaller rectangle, or gives outputs its family does not have there, is a
+        ``detectors.InputSizeError`` (a ModelError).
     preprocessing : Preprocessing, optional
         Override the family's colour order, scaling, normalisation and letterbox placement.
     max_detections : int
@@ -330,10 +331,11 @@ class OnnxDetector:
             try:
                 self.session = ort.InferenceSession(_free_image_dims(source, inp.name, axes), sess_options=opts,
                                                     providers=list(providers))
-            except Exception as exc:  # noqa: BLE001 (onnx's and onnxruntime's own classes)
+            except Exception as exc:  # noqa: BLE001 (onnxruntime's own classes; ValueError: not a protobuf)
                 first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-                raise InputSizeError(f"`minimal_padding`: model {where} (fixed input size {fixed[0]}x{fixed[1]}) cannot "
-                                 f"be loaded with a free input size: {first[:300]}; use minimal_padding=False") from None
+                raise InputSizeError(f"`minimal_padding`: model {where} (fixed input size {fixed[0]}x{fixed[1]}) "
+                                     f"cannot be loaded with a free input size: {first[:300]}; use "
+                                     "minimal_padding=False") from None
         self.minimal_padding = bool(minimal_padding)
 
         # ---------------------------------------------------------------- class names given
@@ -438,12 +440,13 @@ class OnnxDetector:
             raise ValueError("`classes` must name at least one class (or be None for all)")
         return np.unique(np.asarray(ids, np.int64))
 
-    def _check_rectangle(self, where: object, hint: str, known: Sequence[str], full: list[tuple[int, ...]] | None) -> None:
+    def _check_rectangle(self, where: object, hint: str, known: Sequence[str],
+                         full: list[tuple[int, ...]] | None) -> None:
         """With ``minimal_padding``: the model must run on a rectangle smaller than ``input_size`` (the height
         halved, rounded up to 32) and give the outputs its family has there (e.g. YOLOX's grid cells), and, an
         export of a fixed size whose size was freed, outputs of another shape than at that size (``full``; every
-        family but "nms" predicts per grid cell), else InputSizeError. An export whose graph holds its input size (a reshape to a fixed grid) fails here, not
-        later on the first image that is not square."""
+        family but "nms" predicts per grid cell), else InputSizeError. An export whose graph holds its input size
+        (a reshape to a fixed grid) fails here, not later on the first image that is not square."""
         w, h = self.input_size
         probe = (w, max(32, -(-(h // 2) // 32) * 32))
         if probe[1] == h:
@@ -463,7 +466,7 @@ class OnnxDetector:
         except Exception as exc:  # noqa: BLE001 (onnxruntime's classes, ModelError from the layout)
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise InputSizeError(f"`minimal_padding`: model {where} does not run at input sizes other than {w}x{h} "
-                             f"(tried {probe[0]}x{probe[1]}: {first[:300]}); use minimal_padding=False") from None
+                                 f"(tried {probe[0]}x{probe[1]}: {first[:300]}); use minimal_padding=False") from None
 
     def _blank_input(self, size: tuple[int, int] | None = None) -> np.ndarray:
         w, h = size or self.input_size

@@ -361,11 +361,12 @@ def format_rate(frames: int, wall_s: float, first_s: float | None, stages: str) 
     loop's start to its record) includes one-time work: the kernels' compiled code loaded on their first call (about
     0.3 s, numba), the buffers, the detector's first run. A camera that runs for minutes gets the second rate.
 
-    >>> format_rate(30, 2.5, 0.4, "reading, matching")
-    '30 frame(s) in 2.5 s: 12.00 frames/s (wall clock of the whole frame loop: reading, matching); after the first frame (0.40 s, one-time loading included): 13.81 frames/s'
+    >>> print(format_rate(30, 2.5, 0.4, "reading, matching").replace("; ", ";\\n"))
+    30 frame(s) in 2.5 s: 12.00 frames/s (wall clock of the whole frame loop: reading, matching);
+    after the first frame (0.40 s, one-time loading included): 13.81 frames/s
     """
-    text = f"{frames} frame(s) in {wall_s:.1f} s: {frames / wall_s if wall_s > 0 else 0.0:.2f} frames/s (wall clock of " \
-           f"the whole frame loop: {stages})"
+    rate = frames / wall_s if wall_s > 0 else 0.0
+    text = f"{frames} frame(s) in {wall_s:.1f} s: {rate:.2f} frames/s (wall clock of the whole frame loop: {stages})"
     if first_s is not None and frames >= 2 and wall_s > first_s:
         text += (f"; after the first frame ({first_s:.2f} s, one-time loading included): "
                  f"{(frames - 1) / (wall_s - first_s):.2f} frames/s")

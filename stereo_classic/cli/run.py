@@ -121,7 +121,9 @@ def add_pipeline_options(p: Any) -> None:
     det.add_argument("--classes", nargs="+", default=None, metavar="LIST",
                      help="comma-separated class names to keep (e.g. car,person; spaces work too)")
     det.add_argument("--square-input", action=argparse.BooleanOptionalAction, default=None,
-                     help="letterbox each frame into the detector's full square input, as exported (default: the smallest multiple-of-32 rectangle around the frame, the same scale and a third of the work on a KITTI frame; models that run at their own size only get the square anyway)")
+                     help="letterbox each frame into the detector's full square input, as exported (default: the "
+                          "smallest multiple-of-32 rectangle around the frame, the same scale and a third of the work "
+                          "on a KITTI frame; models that run at their own size only get the square anyway)")
 
     fus = p.add_argument_group("fusion")
     add_options(fus, FusionParams, show_defaults=FusionParams())

@@ -109,7 +109,8 @@ def test_scores_that_are_logits_are_a_model_error_from_detect():
 
 def test_free_image_dims_rewrites_only_the_declared_shapes():
     """The wire-format rewrite read back by the onnx package: the input's height and width named free, the outputs'
-    sizes unknown (rank kept), the inner tensors' recorded shapes gone, everything else (nodes, weights, metadata, opsets) equal."""
+    sizes unknown (rank kept), the inner tensors' recorded shapes gone, everything else (nodes, weights, metadata,
+    opsets) equal."""
     import onnx
     from onnx import TensorProto, helper, numpy_helper
 
@@ -118,7 +119,8 @@ def test_free_image_dims_rewrites_only_the_declared_shapes():
     w = numpy_helper.from_array(np.ones((4, 3, 3, 3), np.float32), "w")
     nodes = [helper.make_node("Conv", ["images", "w"], ["f"], pads=[1, 1, 1, 1]),
              helper.make_node("Relu", ["f"], ["out"])]
-    graph = helper.make_graph(nodes, "g", [helper.make_tensor_value_info("images", TensorProto.FLOAT, [1, 3, 416, 416])],
+    image = helper.make_tensor_value_info("images", TensorProto.FLOAT, [1, 3, 416, 416])
+    graph = helper.make_graph(nodes, "g", [image],
                               [helper.make_tensor_value_info("out", TensorProto.FLOAT, [1, 4, 416, 416])],
                               initializer=[w],
                               value_info=[helper.make_tensor_value_info("f", TensorProto.FLOAT, [1, 4, 416, 416])])
