@@ -399,8 +399,8 @@ def median_measured(disparity: np.ndarray, holes: np.ndarray | None = None, *, t
     """Each measured pixel replaced by the lower median of the measured pixels of its 3x3 neighbourhood.
 
     Hirschmuller's semi-global matching filters its disparity with a 3x3 median (CVPR 2005, PAMI 2008; so do
-    libSGM and Pandora): an isolated wrong winner among right neighbours is outvoted, and the subpixel steps of a
-    slanted surface are smoothed. Here it reads the *measured* pixels only: an unknown pixel stays unknown (and a
+    libSGM and Pandora): an isolated wrong winner among agreeing neighbours is outvoted, and the subpixel steps of
+    a slanted surface are smoothed. Here it reads the *measured* pixels only: an unknown pixel stays unknown (and a
     hole the fill made, marked in ``holes``, keeps its value and is not read), so no measurement is invented or
     lost; with an even number n of measured neighbours it takes the lower of the two middle values (the
     ``(n - 1) // 2``-th smallest), a value that was measured. Stripes of rows on ``threads`` threads, the same map
