@@ -51,7 +51,7 @@ def open_detector(model: str | os.PathLike, *, square_input: bool = False, **opt
     the model's full square: the square's padding is grey, not image, and a network's time grows with its input's
     area. With the shipped 416x416 YOLOX-nano a 1242x375 KITTI frame runs at 416x128 and a 640x480 OAK-D frame at
     416x320, the image at the same scale as in the square (measured at 1 thread, median of 5: 12.5 -> 4.2 ms and
-    11.4 -> 8.5 ms; the same objects, confidences within a few hundredths, docs/detectors.md). A model that runs
+    11.4 -> 8.5 ms; the same objects, confidences within 0.09, docs/detectors.md). A model that runs
     at its own size only (``detectors.InputSizeError``: a graph that reshapes to a fixed grid, e.g. the NanoDet
     and FastestDet exports), ``square_input=True``, or a ``minimal_padding`` in ``options`` get what they ask:
     the square for the first two."""

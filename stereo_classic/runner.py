@@ -55,8 +55,8 @@ from stereo_classic.sources import (
     SideBySideSource,
 )
 
-__all__ = ["ON_ERROR", "DetectorSpec", "FrameOutput", "FrameProcessor", "RunSummary", "Terminated", "run_source",
-           "scale_pair"]
+__all__ = ["ON_ERROR", "DetectorSpec", "FrameOutput", "FrameProcessor", "RunSummary", "Terminated", "in_order",
+           "run_source", "scale_pair"]
 
 log = logging.getLogger("stereo_classic.run")
 
@@ -405,6 +405,31 @@ def _read_ahead(refs: Iterable[FrameRef]) -> Iterator[tuple[FrameRef, Callable[[
             yield ref, done.result
 
 
+def in_order(items: Iterable[Any], start: Callable[[Any], Any], finish: Callable[[Any], None], *,
+             overlap: bool = True) -> None:
+    """``start(item)`` for each item in turn and ``finish`` of what it returned, in the same order. With ``overlap``
+    an item is finished once the next one has started (what its start left running, in a worker thread, overlaps
+    that start), the last one at the end; a start that raises (or Ctrl-C during it) first finishes the item started
+    before it, as finishing each in turn would have, then raises. Without ``overlap`` each is finished at once.
+    ``run``'s pipelined loop and ``guide``'s use it."""
+    before: list[Any] = []  # the item started before, not yet finished
+    for item in items:
+        try:
+            started = start(item)
+        except BaseException:
+            if before:
+                finish(before.pop())
+            raise
+        if before:
+            finish(before.pop())
+        if overlap:
+            before.append(started)
+        else:
+            finish(started)
+    if before:
+        finish(before.pop())
+
+
 def _run_overlapped(refs: Iterable[FrameRef], processor: FrameProcessor, take: Callable[[FrameOutput], None],
                     check: Callable[[], None] = lambda: None, read_ahead: bool = False,
                     pipeline: bool = False) -> None:
@@ -433,26 +458,20 @@ def _run_overlapped(refs: Iterable[FrameRef], processor: FrameProcessor, take: C
                 pending.result()
             pending = pool.submit(take, out)
 
-        before: Callable[[], FrameOutput] | None = None  # the frame started before, not yet handed on
+        def start(item: tuple[FrameRef, Callable[[], Frame] | None]) -> Callable[[], FrameOutput]:
+            ref, read = item
+            started = processor.start(ref) if read is None else processor.start(ref, read)
+            check()
+            return started
+
         try:
-            for ref, read in frames:
-                if not pipeline:
+            if pipeline:
+                in_order(frames, start, lambda started: hand(started()))
+            else:
+                for ref, read in frames:
                     out = processor.process_ref(ref) if read is None else processor.process_ref(ref, read)
                     check()
                     hand(out)
-                    continue
-                try:
-                    started = processor.start(ref) if read is None else processor.start(ref, read)
-                    check()
-                except BaseException:  # a failure or Ctrl-C here: the frame before is finished and written first
-                    if before is not None:
-                        hand(before())
-                    raise
-                if before is not None:
-                    hand(before())
-                before = started
-            if before is not None:
-                hand(before())
         finally:
             frames.close()  # a read in progress ends before this returns
             if pending is not None:

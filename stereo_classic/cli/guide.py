@@ -39,7 +39,7 @@ from stereo_classic.guide.render import draw_birdseye, draw_overlay
 from stereo_classic.guide.speech import Speaker
 from stereo_classic.outputs.files import JsonlSink
 from stereo_classic.pipeline import Localizer, format_rate, format_timings
-from stereo_classic.runner import scale_pair
+from stereo_classic.runner import in_order, scale_pair
 
 __all__ = ["EVENTS_NAME", "GUIDE_SAVE", "add_parser", "func"]
 
@@ -180,7 +180,6 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
     # detection, fusion and checks run in the Localizer's worker while frame N + 1 is read and matched here, and
     # frame N is guided (in order, here) once frame N + 1's match is done; the same events as in turn.
     pipelined = bool(cfg["pipeline"]) and not live
-    before: tuple[Any, ...] | None = None  # (frame, rig, result future) started, not yet guided
 
     def guided(frame: Any, rig: calib.RectifiedRig, future: Any) -> None:
         nonlocal frames, events, first_done
@@ -217,41 +216,31 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
         events += len(gframe.events)
         bar.update(1)
 
+    def begin(frame: Any) -> tuple[Any, calib.RectifiedRig, Future]:
+        original = frame.rig if frame.rig is not None else base_rig
+        if original is None:
+            raise ValueError(f"frame {frame.name}: no calibration")
+        if not current or current[0] is not original:
+            if current:
+                current.pop().close()  # (waits for its worker: a frame started there stays readable)
+            rig = original
+            if cfg["scale"] != 1.0:
+                rig = (rig.without_maps() if rig.has_maps else rig).scaled(cfg["scale"])
+            current[:] = [original, rig, Localizer(
+                rig, detector, run_command._matcher_params(cfg, frame.max_disparity), fusion=cfg["fusion"],
+                seed=cfg["seed"], classes=cfg["classes"] or None, concurrent=cfg["concurrent"])]
+        _, rig, loc = current
+        left, right = frame.left, frame.right
+        try:
+            if cfg["scale"] != 1.0:
+                left, right = scale_pair(left, right, original, rig.image_size)
+            return frame, rig, loc.submit(left, right) if pipelined else _done(loc(left, right))
+        except ValueError as exc:
+            raise ValueError(f"frame {frame.name}: {exc}") from None
+
     try:
-        for frame in source.frames():
-            try:
-                original = frame.rig if frame.rig is not None else base_rig
-                if original is None:
-                    raise ValueError(f"frame {frame.name}: no calibration")
-                if not current or current[0] is not original:
-                    if current:
-                        current.pop().close()  # (waits for its worker: a frame started there stays readable)
-                    rig = original
-                    if cfg["scale"] != 1.0:
-                        rig = (rig.without_maps() if rig.has_maps else rig).scaled(cfg["scale"])
-                    current[:] = [original, rig, Localizer(
-                        rig, detector, run_command._matcher_params(cfg, frame.max_disparity), fusion=cfg["fusion"],
-                        seed=cfg["seed"], classes=cfg["classes"] or None, concurrent=cfg["concurrent"])]
-                _, rig, loc = current
-                left, right = frame.left, frame.right
-                try:
-                    if cfg["scale"] != 1.0:
-                        left, right = scale_pair(left, right, original, rig.image_size)
-                    started = loc.submit(left, right) if pipelined else _done(loc(left, right))
-                except ValueError as exc:
-                    raise ValueError(f"frame {frame.name}: {exc}") from None
-            except BaseException:  # a failure or Ctrl-C: the frame before first, as guiding in turn would have
-                if before is not None:
-                    guided(*before)
-                raise
-            if before is not None:
-                guided(*before)
-            before = (frame, rig, started)
-            if not pipelined:
-                guided(*before)
-                before = None
-        if before is not None:
-            guided(*before)
+        # a failure or Ctrl-C while a frame starts: the frame before is guided first, as guiding in turn would have
+        in_order(source.frames(), begin, lambda started: guided(*started), overlap=pipelined)
     except KeyboardInterrupt:
         interrupted = True
     finally:
