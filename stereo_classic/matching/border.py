@@ -23,7 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["STRIP_MARGIN", "left_border_columns", "strip_width", "confirm_left_border"]
+__all__ = ["STRIP_MARGIN", "left_border_columns", "strip_params", "strip_width", "confirm_left_border"]
 
 #: Columns of the strip beyond what the checked pixels' matches can reach: the cost windows (census 9 x 7: 4 px,
 #: the gradient term's block: 2 px) and some warm-up for the path that enters the strip at its cut edge.
@@ -44,6 +44,12 @@ def strip_width(columns: int, width: int, params) -> int:
     return min(width, columns + abs(params.min_disparity) + params.num_disparities + STRIP_MARGIN)
 
 
+def strip_params(params):
+    """The ``SGMParams`` the mirrored strip is matched with: the caller's, without this check, the border rule and
+    the fill (every pixel of the strip's right view a measurement), and without a right view of its own."""
+    return params.replace(border_check=False, border_reach=0.0, fill_holes=False, right_view=False)
+
+
 def confirm_left_border(left: np.ndarray, right: np.ndarray, disparity: np.ndarray, columns: int, params,
                         match: Callable) -> np.ndarray:
     """(H, columns) bool: the pixels of the first ``columns`` columns of ``disparity`` (finite = the left view's
@@ -57,8 +63,7 @@ def confirm_left_border(left: np.ndarray, right: np.ndarray, disparity: np.ndarr
     width = strip_width(columns, W, params)
     mirrored_left = np.ascontiguousarray(right[:, :width][:, ::-1])
     mirrored_right = np.ascontiguousarray(left[:, :width][:, ::-1])
-    strip = match(mirrored_left, mirrored_right,
-                  params.replace(border_check=False, border_reach=0.0, fill_holes=False, right_view=False))
+    strip = match(mirrored_left, mirrored_right, strip_params(params))
     right_view = strip.disparity[:, ::-1]  # the right image's own disparity, columns 0 .. width - 1
     d = disparity[:, :columns]
     ys, xs = np.nonzero(np.isfinite(d))

@@ -21,7 +21,7 @@ import cv2
 import numpy as np
 
 from stereo_classic.matching import learned
-from stereo_classic.matching.border import confirm_left_border, left_border_columns, strip_width
+from stereo_classic.matching.border import confirm_left_border, left_border_columns, strip_params, strip_width
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching.params import SGMParams
 from stereo_classic.matching.postprocess import (
@@ -279,8 +279,7 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
     if params.border_check and params.lr_check is not None and params.effective_border_reach > 0:  # the mirrored strip
         columns = min(width, math.ceil(params.effective_border_reach * params.num_disparities))
         strip_cols = strip_width(columns, width, params)
-        strip = 2 * height * strip_cols + estimate_memory(
-            (height, strip_cols), params.replace(border_check=False, fill_holes=False, border_reach=0.0))
+        strip = 2 * height * strip_cols + estimate_memory((height, strip_cols), strip_params(params))
     return int(core + conversion + post + strip)
 
 
