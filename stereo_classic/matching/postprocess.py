@@ -63,14 +63,18 @@ def filter_speckles(disparity: np.ndarray, *, max_size: int, max_diff: float, th
     return _filter_speckles_counted(disparity, max_size=max_size, max_diff=max_diff, threads=threads)[0]
 
 
+def _check_threads(threads: int) -> None:
+    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise ValueError(f"`threads` must be a positive integer, got {threads!r}")
+
+
 def _check_speckle_args(disparity: np.ndarray, max_size: int, max_diff: float, threads: int) -> np.ndarray:
     disp = _check_disparity(disparity)
     if isinstance(max_size, bool) or not isinstance(max_size, (int, np.integer)) or max_size < 0:
         raise ValueError(f"`max_size` must be a non-negative integer, got {max_size!r}")
     if not np.isfinite(max_diff) or max_diff < 0:
         raise ValueError(f"`max_diff` must be a non-negative number of pixels, got {max_diff!r}")
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        raise ValueError(f"`threads` must be a positive integer, got {threads!r}")
+    _check_threads(threads)
     if disp.size >= _MAX_LABELS:
         raise ValueError(f"`disparity` has {disp.size} pixels; the speckle filter labels at most {_MAX_LABELS - 1} "
                          "(int32 region labels): filter it in parts")
@@ -288,8 +292,7 @@ def _fill_holes_counted(disparity: np.ndarray, *, threads: int = 1, n_valid: int
     filled. ``n_valid``: the number of finite pixels, when the caller knows it; ``workspace`` keeps the
     temporaries between calls."""
     disp = np.ascontiguousarray(_check_disparity(disparity))
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        raise ValueError(f"`threads` must be a positive integer, got {threads!r}")
+    _check_threads(threads)
     if n_valid is None:
         n_valid = _finite_range(disp)[2]
     if n_valid in (0, disp.size):
@@ -426,8 +429,7 @@ def median_measured(disparity: np.ndarray, holes: np.ndarray | None = None, *, t
     (10.0, True)
     """
     disp = np.ascontiguousarray(_check_disparity(disparity))
-    if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
-        raise ValueError(f"`threads` must be a positive integer, got {threads!r}")
+    _check_threads(threads)
     H, W = disp.shape
     if holes is None:
         holes = np.zeros((H, W), np.bool_)
