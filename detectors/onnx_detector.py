@@ -14,7 +14,7 @@ import numpy as np
 
 from detectors.classes import COCO_CLASSES, coerce_names, names_from_metadata, read_names_file
 from detectors.decoders import FAMILIES, PREPROCESSING, OutputLayout, decode, recognise_layout
-from detectors.errors import InputSizeError, ModelError
+from detectors.errors import InputSizeError, ModelError, first_line
 from detectors.letterbox import Letterbox, Preprocessing, check_image, letterbox
 from detectors.models import resolve_model
 from detectors.nms import nms
@@ -282,7 +282,7 @@ class OnnxDetector:
         try:
             self.session = ort.InferenceSession(source, sess_options=opts, providers=list(providers))
         except Exception as exc:  # onnxruntime raises its own classes (InvalidProtobuf, Fail, ...)
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            first = first_line(exc)
             raise ModelError(f"cannot load ONNX model {where}: {first[:300]}") from None
         self.metadata: dict[str, str] = dict(self.session.get_modelmeta().custom_metadata_map)
 
@@ -332,7 +332,7 @@ class OnnxDetector:
                 self.session = ort.InferenceSession(_free_image_dims(source, inp.name, axes), sess_options=opts,
                                                     providers=list(providers))
             except Exception as exc:  # noqa: BLE001 (onnxruntime's own classes; ValueError: not a protobuf)
-                first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+                first = first_line(exc)
                 raise InputSizeError(f"`minimal_padding`: model {where} (fixed input size {fixed[0]}x{fixed[1]}) "
                                      f"cannot be loaded with a free input size: {first[:300]}; use "
                                      "minimal_padding=False") from None
@@ -355,7 +355,7 @@ class OnnxDetector:
         try:
             raw = self.session.run(None, {self.input_name: zeros})
         except Exception as exc:
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            first = first_line(exc)
             raise ModelError(f"model {where} failed on a blank {size[0]}x{size[1]} input: {first[:300]}") from None
         shapes = [np.shape(r) for r in raw]
         dtypes = [np.asarray(r).dtype for r in raw]
@@ -464,7 +464,7 @@ class OnnxDetector:
                 raise InputSizeError(f"the same outputs {list(full)} as at {w}x{h}: the model does not read its "
                                      "input's size")
         except Exception as exc:  # noqa: BLE001 (onnxruntime's classes, ModelError from the layout)
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            first = first_line(exc)
             raise InputSizeError(f"`minimal_padding`: model {where} does not run at input sizes other than {w}x{h} "
                                  f"(tried {probe[0]}x{probe[1]}: {first[:300]}); use minimal_padding=False") from None
 
@@ -567,7 +567,7 @@ class OnnxDetector:
         try:
             raw = self.session.run(None, {self.input_name: x})
         except Exception as exc:  # noqa: BLE001 (onnxruntime's own classes, Fail, InvalidArgument, ...)
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            first = first_line(exc)
             where = self.model_path if self.model_path is not None else "<model bytes>"
             raise ModelError(f"model {where} failed on a {x.shape} input: {first[:300]}") from None
         t2 = time.perf_counter()

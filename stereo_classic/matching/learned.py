@@ -27,6 +27,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from detectors.errors import first_line
 from stereo_classic.matching._kernels.features import quantise_rows
 from stereo_classic.matching._kernels.workers import run_tasks
 
@@ -136,7 +137,7 @@ class FeatureModel:
         except FeatureModelError:
             raise
         except Exception as exc:  # onnxruntime's own classes (InvalidProtobuf, Fail, ...)
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            first = first_line(exc)
             raise FeatureModelError(f"`feature_model` {self.path} is not a usable ONNX model: {first[:300]}") from None
         self.providers = tuple(self.session.get_providers())
         inputs, outputs = self.session.get_inputs(), self.session.get_outputs()
@@ -167,7 +168,7 @@ class FeatureModel:
         try:
             out = self.session.run([self._output], {self._input: x})[0]
         except Exception as exc:
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            first = first_line(exc)
             raise FeatureModelError(f"`feature_model` {self.path} failed on a {image.shape[0]} x {image.shape[1]} "
                                     f"image: {first[:300]}") from None
         out = np.asarray(out)
