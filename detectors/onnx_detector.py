@@ -18,6 +18,9 @@ from detectors.errors import InputSizeError, ModelError, first_line
 from detectors.letterbox import Letterbox, Preprocessing, check_image, letterbox
 from detectors.models import resolve_model
 from detectors.nms import nms
+from detectors.onnx_wire import Field as _Field
+from detectors.onnx_wire import pb_encode as _pb_encode
+from detectors.onnx_wire import pb_fields as _pb_fields
 from detectors.results import Detections
 
 __all__ = ["OnnxDetector", "session_options"]
@@ -120,70 +123,6 @@ def _free_image_dims(source: str | bytes, input_name: str, axes: tuple[int, int]
             graph.append((gnum, gwire, graw))
         model[i] = (num, wire, _pb_encode(graph))
     return _pb_encode(model)
-
-
-_Field = tuple[int, int, bytes]  # protobuf field: number, wire type, payload (a length-delimited one without its length)
-
-
-def _pb_varint(buf: bytes, i: int) -> tuple[int, int]:
-    value = shift = 0
-    while True:
-        if i >= len(buf):
-            raise ValueError("truncated protobuf varint")
-        byte = buf[i]
-        i += 1
-        value |= (byte & 0x7F) << shift
-        if byte < 0x80:
-            return value, i
-        shift += 7
-        if shift > 63:
-            raise ValueError("protobuf varint longer than 10 bytes")
-
-
-def _pb_fields(buf: bytes) -> list[_Field]:
-    """The fields of one protobuf message, in order (wire types 0, 1, 2 and 5; groups are not used by ONNX)."""
-    out: list[_Field] = []
-    i, n = 0, len(buf)
-    while i < n:
-        key, i = _pb_varint(buf, i)
-        num, wire = key >> 3, key & 7
-        start = i
-        if wire == 0:
-            _, i = _pb_varint(buf, i)
-        elif wire == 1:
-            i += 8
-        elif wire == 5:
-            i += 4
-        elif wire == 2:
-            length, start = _pb_varint(buf, i)
-            i = start + length
-        else:
-            raise ValueError(f"protobuf wire type {wire} (field {num}) is not ONNX's")
-        if i > n:
-            raise ValueError(f"truncated protobuf field {num}")
-        out.append((num, wire, buf[start:i]))
-    return out
-
-
-def _pb_encode(fields: Iterable[_Field]) -> bytes:
-    def varint(value: int) -> bytes:
-        out = bytearray()
-        while True:
-            byte = value & 0x7F
-            value >>= 7
-            if value:
-                out.append(byte | 0x80)
-            else:
-                out.append(byte)
-                return bytes(out)
-
-    parts = []
-    for num, wire, raw in fields:
-        parts.append(varint(num << 3 | wire))
-        if wire == 2:
-            parts.append(varint(len(raw)))
-        parts.append(raw)
-    return b"".join(parts)
 
 
 class OnnxDetector:

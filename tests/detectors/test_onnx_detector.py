@@ -145,7 +145,7 @@ def test_free_image_dims_rewrites_only_the_declared_shapes():
 
 
 def test_free_image_dims_refuses_what_is_not_protobuf():
-    from detectors.onnx_detector import _pb_fields
+    from detectors.onnx_wire import pb_fields as _pb_fields
 
     with pytest.raises(ValueError, match="truncated protobuf"):
         _pb_fields(b"\x3a\x05ab")  # field 7, length 5, 2 bytes

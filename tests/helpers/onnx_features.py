@@ -1,7 +1,8 @@
 """Tiny ONNX feature networks built with onnx.helper, for the learned-cost tests (test helper).
 
 ``build_conv_features`` is a real (if naive) Siamese feature network: one 3x3 convolution without padding (margin 1)
-with fixed random zero-mean weights (blind to a brightness offset), C channels, no activation: what ``SGMParams(cost="features")`` runs. The other
+with fixed random zero-mean weights (blind to a brightness offset), C channels, no activation: what
+``SGMParams(cost="features")`` runs. The other
 builders make the broken networks the matcher must refuse with one clear line.
 """
 
@@ -71,3 +72,29 @@ def build_nan_features(path: Path) -> Path:
     nodes = [helper.make_node("Sub", ["image", "big"], ["neg"]), helper.make_node("Log", ["neg"], ["features"])]
     return _save(nodes, [helper.make_tensor_value_info("image", TensorProto.FLOAT, [1, 1, "H", "W"])],
                  [helper.make_tensor_value_info("features", TensorProto.FLOAT, [1, 1, "H", "W"])], inits, path)
+
+
+def build_divided_features(path: Path, *, divisor: str = "norm", channels: int = 8, seed: int = 0) -> Path:
+    """``build_conv_features``' (1, C, H - 2, W - 2) convolution, then divided, then squeezed to (C, H - 2, W - 2).
+
+    ``divisor``: "norm", each pixel's vector by its L2 norm (``ReduceL2`` over the channels, ``Clip`` at 1e-12, MC-CNN's
+    end); "constant", by 2 (the same unit vectors); "per_channel", channel c by c + 1 (not the same unit vectors)."""
+    weights = np.random.default_rng(seed).standard_normal((channels, 1, 3, 3))
+    weights = (weights - weights.mean(axis=(2, 3), keepdims=True)).astype(np.float32)
+    inits = [helper.make_tensor("w", TensorProto.FLOAT, weights.shape, weights.ravel().tolist()),
+             helper.make_tensor("axis0", TensorProto.INT64, [1], [0]),
+             helper.make_tensor("unused", TensorProto.FLOAT, [2], [1.0, 2.0])]
+    nodes = [helper.make_node("Conv", ["image", "w"], ["conv"])]
+    if divisor == "norm":
+        inits.append(helper.make_tensor("eps", TensorProto.FLOAT, [], [1e-12]))
+        nodes += [helper.make_node("ReduceL2", ["conv"], ["norm"], axes=[1], keepdims=1),
+                  helper.make_node("Clip", ["norm", "eps"], ["den"])]
+    elif divisor == "constant":
+        inits.append(helper.make_tensor("den", TensorProto.FLOAT, [], [2.0]))
+    else:
+        inits.append(helper.make_tensor("den", TensorProto.FLOAT, [1, channels, 1, 1],
+                                        [float(c + 1) for c in range(channels)]))
+    nodes += [helper.make_node("Div", ["conv", "den"], ["unit"]),
+              helper.make_node("Squeeze", ["unit", "axis0"], ["features"])]
+    return _save(nodes, [helper.make_tensor_value_info("image", TensorProto.FLOAT, [1, 1, "H", "W"])],
+                 [helper.make_tensor_value_info("features", TensorProto.FLOAT, [channels, "Ho", "Wo"])], inits, path)

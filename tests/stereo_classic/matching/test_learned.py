@@ -16,6 +16,7 @@ from stereo_classic.matching._kernels import core
 from stereo_classic.matching.learned import FeatureModelError
 from tests.helpers.onnx_features import (
     build_conv_features,
+    build_divided_features,
     build_nan_features,
     build_rank5_input,
     build_strided_features,
@@ -125,6 +126,44 @@ def _one_line(exc: pytest.ExceptionInfo) -> str:
     text = str(exc.value)
     assert "\n" not in text and "`feature_model`" in text
     return text
+
+
+@pytest.mark.parametrize("divisor", ["norm", "constant"])
+def test_a_final_division_that_changes_no_direction_is_skipped_with_the_same_features(tmp_path, divisor):
+    whole = learned.FeatureModel(build_conv_features(tmp_path / "conv.onnx", rank=4), threads=1)
+    divided = learned.FeatureModel(build_divided_features(tmp_path / "div.onnx", divisor=divisor), threads=1)
+    assert whole.skipped_division is None  # no division at its end
+    assert divided.skipped_division == "conv"
+    assert [o.name for o in divided.session.get_outputs()] == ["conv"]
+    assert divided.channels == 8 and divided.margin == 1
+    left, right = _texture_pair(4)
+    for a, b in zip(whole.features(left, right), divided.features(left, right)):  # same weights, same unit vectors
+        assert np.abs(a.astype(int) - b.astype(int)).max() <= 1  # float rounding at a tie, at most one step
+        assert (a != b).mean() < 1e-3
+
+
+def test_a_final_division_that_changes_directions_is_kept(tmp_path):
+    model = learned.FeatureModel(build_divided_features(tmp_path / "div.onnx", divisor="per_channel"), threads=1)
+    assert model.skipped_division is None
+    assert [o.name for o in model.session.get_outputs()] == ["features"]
+
+
+def test_without_final_division_keeps_the_numerator_and_what_it_needs_only(tmp_path):
+    onnx = pytest.importorskip("onnx")
+    data = build_divided_features(tmp_path / "div.onnx").read_bytes()
+    cut, name = learned.without_final_division(data)
+    model = onnx.load_from_string(cut)  # the output's rank is unknown (no shape), which ONNX Runtime takes
+    assert name == "conv"
+    assert [n.op_type for n in model.graph.node] == ["Conv"]
+    assert [i.name for i in model.graph.initializer] == ["w"]
+    assert [o.name for o in model.graph.output] == ["conv"]
+    assert learned.without_final_division(build_conv_features(tmp_path / "c.onnx").read_bytes()) is None
+    assert learned.without_final_division(b"") is None
+
+
+@pytest.mark.parametrize("name", sorted(learned.SHIPPED_MODELS))
+def test_the_shipped_networks_run_without_their_final_normalisation(name):
+    assert learned.feature_model(name, "cpu", 1).skipped_division is not None
 
 
 def test_a_file_that_is_not_onnx_is_refused_in_one_line(tmp_path):
