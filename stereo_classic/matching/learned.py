@@ -126,12 +126,12 @@ def without_final_division(data: bytes) -> tuple[bytes, str] | None:
 
     A feature network that ends by dividing its features by their own L2 norm (MC-CNN's ``x / max(||x||, eps)``)
     repeats what ``features`` does to every pixel's vector anyway (``quantise_rows`` normalises it), so the division
-    and everything that only feeds its denominator (the norm, its reshapes) are work for nothing: a quarter to a third of the
-    shipped MC-CNN's ONNX time (measured, median of 7 runs on a 1252 x 385 image, 2 threads: the depthwise net
-    169 -> 115 ms, the int8 one 376 -> 288 ms). The rewrite keeps the
-    graph's first output only, the numerator's name as that output (its type float, shape unknown), the nodes it
-    needs and the initializers they read (``value_info`` dropped, for ONNX Runtime to infer it); every kept node and
-    initializer is copied byte for byte. Whether it gives the same unit vectors is for the caller to check (a division
+    and everything that only feeds its denominator (the norm, its reshapes) are work for nothing: a quarter to a
+    third of the shipped MC-CNN's ONNX time (measured, median of 7 runs on a 1252 x 385 image, 2 threads: the
+    depthwise net 169 -> 115 ms, the int8 one 376 -> 288 ms). The rewrite keeps the graph's first output only, the
+    numerator's name as that output (its type float, shape unknown), the nodes it needs and the initializers they
+    read (``value_info`` dropped, for ONNX Runtime to infer it); every kept node and initializer is copied byte for
+    byte. Whether it gives the same unit vectors is for the caller to check (a division
     by anything else is not redundant): ``FeatureModel`` compares both on its probe image and keeps the original
     where they differ.
     """

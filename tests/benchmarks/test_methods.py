@@ -16,7 +16,8 @@ from benchmarks.methods import (
 
 def test_matcher_variants_and_their_settings():
     methods = {m.name: m for m in stereo_classic_methods()}
-    assert list(methods) == ["sc-default", "sc-mccnn", "sc-mccnn-int8", "sc-census-8", "sc-census-3", "sc-8", "sc-sad-8"]
+    assert list(methods) == ["sc-default", "sc-mccnn", "sc-mccnn-int8", "sc-census-8", "sc-census-3", "sc-8",
+                             "sc-sad-8"]
     assert methods["sc-mccnn"].params["cost"] == "mccnn"
     default = sc.SGMParams()
     assert methods["sc-default"].params["cost"] == default.cost and methods["sc-default"].params["paths"] == default.paths

@@ -2,8 +2,8 @@
 
 ``build_conv_features`` is a real (if naive) Siamese feature network: one 3x3 convolution without padding (margin 1)
 with fixed random zero-mean weights (blind to a brightness offset), C channels, no activation: what
-``SGMParams(cost="features")`` runs. The other
-builders make the broken networks the matcher must refuse with one clear line.
+``SGMParams(cost="features")`` runs. ``build_divided_features`` ends it with a division (MC-CNN ends with its L2
+norm). The other builders make the broken networks the matcher must refuse with one clear line.
 """
 
 from __future__ import annotations
