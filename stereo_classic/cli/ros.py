@@ -12,6 +12,7 @@ import dataclasses
 from typing import Any
 
 from stereo_classic.cli.errors import UsageError
+from stereo_classic.cli.run import SQUARE_INPUT_HELP
 
 __all__ = ["add_parser", "func"]
 
@@ -30,10 +31,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     det.add_argument("--conf", type=float, default=0.3, help="confidence threshold (default 0.3)")
     det.add_argument("--iou", type=float, default=0.45, help="NMS IoU threshold (default 0.45)")
     det.add_argument("--classes", default="", metavar="LIST", help="comma-separated class names to keep")
-    det.add_argument("--square-input", action="store_true",
-                     help="letterbox each frame into the detector's full square input, as exported (default: the "
-                          "smallest multiple-of-32 rectangle around the frame, the same scale and a third of the work "
-                          "on a KITTI frame; models that run at their own size only get the square anyway)")
+    det.add_argument("--square-input", action="store_true", help=SQUARE_INPUT_HELP)
     node = p.add_argument_group("node")
     node.add_argument("--guide", action="store_true", help="also run the guide and publish guide/events")
     node.add_argument("--threads", type=int, default=0, metavar="N", help="matcher and detector threads (0 = all)")

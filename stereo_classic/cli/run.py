@@ -111,6 +111,12 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     return p
 
 
+#: ``--square-input``'s help (``run``, ``guide`` and ``ros``).
+SQUARE_INPUT_HELP = ("letterbox each frame into the detector's full square input, as exported (default: the smallest "
+                     "multiple-of-32 rectangle around the frame, the same scale and a third of the work on a KITTI "
+                     "frame; models that run at their own size only get the square anyway)")
+
+
 def add_pipeline_options(p: Any) -> None:
     """Register the detector, fusion and matcher option groups (shared by ``run`` and ``guide``)."""
     det = p.add_argument_group("detector")
@@ -120,10 +126,7 @@ def add_pipeline_options(p: Any) -> None:
     det.add_argument("--iou", type=float, default=None, help="NMS IoU threshold (default 0.45)")
     det.add_argument("--classes", nargs="+", default=None, metavar="LIST",
                      help="comma-separated class names to keep (e.g. car,person; spaces work too)")
-    det.add_argument("--square-input", action=argparse.BooleanOptionalAction, default=None,
-                     help="letterbox each frame into the detector's full square input, as exported (default: the "
-                          "smallest multiple-of-32 rectangle around the frame, the same scale and a third of the work "
-                          "on a KITTI frame; models that run at their own size only get the square anyway)")
+    det.add_argument("--square-input", action=argparse.BooleanOptionalAction, default=None, help=SQUARE_INPUT_HELP)
 
     fus = p.add_argument_group("fusion")
     add_options(fus, FusionParams, show_defaults=FusionParams())

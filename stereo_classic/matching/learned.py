@@ -18,7 +18,6 @@ loses (MC-CNN fast: 5). The input is padded by m (replicated borders) so that ev
 
 from __future__ import annotations
 
-import hashlib
 import os
 import threading
 from dataclasses import dataclass
@@ -28,6 +27,7 @@ import cv2
 import numpy as np
 
 from detectors.errors import first_line
+from detectors.models import verify_sha256
 from detectors.onnx_wire import pb_encode, pb_fields, pb_strings
 from stereo_classic.matching._kernels.features import quantise_rows
 from stereo_classic.matching._kernels.workers import run_tasks
@@ -90,10 +90,6 @@ def resolve(model: str | os.PathLike) -> Path:
         raise FeatureModelError(f"`feature_model` must be an ONNX file or one of {', '.join(SHIPPED_MODELS)}, "
                                 f"got {str(model)!r} (no such file)")
     return path
-
-
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def _providers(provider: str) -> list[str]:
@@ -207,7 +203,8 @@ class FeatureModel:
 
         self.path = resolve(model)
         self.name = str(model)
-        if isinstance(model, str) and model in SHIPPED_MODELS and _sha256(self.path) != SHIPPED_MODELS[model].sha256:
+        shipped = SHIPPED_MODELS.get(model) if isinstance(model, str) else None
+        if shipped is not None and not verify_sha256(self.path, shipped.sha256):
             raise FeatureModelError(f"`feature_model` {model!r}: {self.path} does not have the shipped sha256 "
                                     f"(broken install)")
         opts = session_options(threads)  # the detector's: no busy-waiting, the matcher's own threads run next
