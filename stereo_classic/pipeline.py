@@ -358,8 +358,9 @@ class Localizer:
 def format_rate(frames: int, wall_s: float, first_s: float | None, stages: str) -> str:
     """The frames/s line of ``run`` and ``guide``: frames over the wall clock of the whole frame loop (``stages``
     says what it holds), and, from two frames on, the rate after the first frame, whose time (``first_s``, from the
-    loop's start to its record) includes one-time work: the kernels' compiled code loaded on their first call (about
-    0.3 s, numba), the buffers, the detector's first run. A camera that runs for minutes gets the second rate.
+    loop's start to its record) includes one-time work: the buffers, the frame checks' matchers, the detector's first
+    run (the commands load the kernels' compiled code before the loop: ``matching.load_kernels``). A camera that runs
+    for minutes gets the second rate.
 
     >>> print(format_rate(30, 2.5, 0.4, "reading, matching").replace("; ", ";\\n"))
     30 frame(s) in 2.5 s: 12.00 frames/s (wall clock of the whole frame loop: reading, matching);

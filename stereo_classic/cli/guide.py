@@ -37,6 +37,7 @@ from stereo_classic.cli.options import add_options, option_names, read_options
 from stereo_classic.guide import Guide, GuideInputError, GuideParams
 from stereo_classic.guide.render import draw_birdseye, draw_overlay
 from stereo_classic.guide.speech import Speaker
+from stereo_classic.matching import load_kernels
 from stereo_classic.outputs.files import JsonlSink
 from stereo_classic.pipeline import Localizer, format_rate, format_timings
 from stereo_classic.runner import in_order, scale_pair
@@ -171,6 +172,7 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
     current: list[Any] = []          # [original rig, rig of the images matched, Localizer]
     timings: list[dict[str, float]] = []
     frames = events = 0
+    load_kernels(run_command._matcher_params(cfg, None))  # before the first frame, not while it waits
     start = time.monotonic()
     first_done: float | None = None  # when the first frame was guided
     bar = tqdm(total=len(source) or None, unit="frame", file=sys.stderr, leave=False,

@@ -41,7 +41,7 @@ from stereo_classic.cli.options import CLI_NUM_DISPARITIES, add_options, read_op
 from stereo_classic.cli.paths import check_output_dir
 from stereo_classic.fusion import FusionInputError, FusionParams, as_generator
 from stereo_classic.fusion.objects import TABLE_COLUMNS
-from stereo_classic.matching import SGMParams
+from stereo_classic.matching import SGMParams, load_kernels
 from stereo_classic.outputs import (
     DEFAULT_SAVE,
     SAVE_KINDS,
@@ -295,6 +295,8 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
         if "mcap" in cfg["save"]:  # the results as one ROS 2 recording (the bag extra)
             writer = _mcap_writer(writer, outdir)
             stack.callback(writer.close)
+        if executor is None:  # the matcher's compiled code loaded before the first frame, not while it waits
+            load_kernels(_matcher_params(cfg, None))
         started = time.perf_counter()
         summary = run_source(
             source, writer, params_for=partial(_matcher_params, cfg), rig=base_rig,

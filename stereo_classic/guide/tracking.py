@@ -135,6 +135,11 @@ class Tracker:
     """
 
     def __init__(self, params: GuideParams, *, max_misses: int = 3) -> None:
+        # Imported by the first tracker, not with this module: scipy.optimize adds ~34 MB to every command that
+        # imports the CLI (run included), and about 0.15 s, which a tracker pays before its first frame.
+        from scipy.optimize import linear_sum_assignment
+
+        self._assign = linear_sum_assignment
         self.params = params
         self.max_misses = max_misses
         self.tracks: list[Track] = []
@@ -162,10 +167,7 @@ class Tracker:
                     d = math.hypot(m.lateral_m - px, m.forward_m - pz)
                     if d <= self._gate(tr, m, dt):
                         cost[i, j] = d
-            # Imported here: scipy.optimize adds ~34 MB to every command that imports the CLI (run included).
-            from scipy.optimize import linear_sum_assignment
-
-            rows, cols = linear_sum_assignment(cost)
+            rows, cols = self._assign(cost)
             for i, j in zip(rows, cols):
                 if cost[i, j] < 1e6:
                     self._add(tracks[i], measurements[j], time_s)

@@ -30,6 +30,7 @@ from stereo_classic.matching.matcher import (
     StereoMatcher,
     compute_disparity,
     estimate_memory,
+    load_kernels,
     to_gray_uint8,
 )
 from stereo_classic.matching.learned import FeatureModelError
@@ -71,6 +72,7 @@ __all__ = [
     "StereoMatcher",
     "DisparityMap",
     "estimate_memory",
+    "load_kernels",
     "to_gray_uint8",
     "StereoInputError",
     "MemoryBudgetError",

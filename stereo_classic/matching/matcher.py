@@ -39,6 +39,7 @@ __all__ = [
     "StereoMatcher",
     "DisparityMap",
     "estimate_memory",
+    "load_kernels",
     "MemoryBudgetError",
     "StereoInputError",
     "to_gray_uint8",
@@ -456,6 +457,48 @@ def compute_disparity(left: Any, right: Any, params: SGMParams | None = None, **
         Bad parameters (message names the field).
     """
     return _match(left, right, _resolve_params(params, overrides))
+
+
+_LOADED: set[tuple[Any, ...]] = set()  # what load_kernels has loaded in this process
+
+
+def load_kernels(params: SGMParams | None = None, **overrides: Any) -> bool:
+    """Load the matcher's compiled kernels now, so that the first frame of a stream takes what the others take.
+
+    The kernels are numba functions kept compiled in numba's on-disk cache. The first call of a process that uses
+    them loads that code and numba's own registries: about 0.3 s on a 2-core machine (more after an install, when
+    they are compiled once). ``run``, ``guide`` and the ROS 2 node call this before their first frame, so that a live
+    camera's first frame is not held up by the loading. It matches a small random pair (64 rows, the range plus 64
+    columns) with ``params``: the same cost, paths, checks and threads, so the same kernels (and a learned cost's
+    network) load.
+
+    Parameters
+    ----------
+    params : SGMParams, optional
+        Default ``SGMParams()``.
+    **overrides
+        Fields of ``SGMParams`` to change.
+
+    Returns
+    -------
+    bool
+        True when this call matched the pair; False when this process had already loaded the kernels for these
+        settings (the call then does nothing).
+
+    >>> _ = load_kernels(num_disparities=16)
+    >>> load_kernels(num_disparities=16)  # loaded already: nothing to do
+    False
+    """
+    params = _resolve_params(params, overrides)
+    key = (params.cost, params.feature_model, params.paths, params.effective_threads, params.border_check)
+    if key in _LOADED:
+        return False
+    width = max(abs(params.min_disparity), abs(params.max_disparity)) + 64
+    pattern = np.random.default_rng(0).integers(0, 256, (64, width + 4), dtype=np.uint8)
+    left, right = np.ascontiguousarray(pattern[:, 4:]), np.ascontiguousarray(pattern[:, :width])  # 4 px apart
+    _match(left, right, params)
+    _LOADED.add(key)
+    return True
 
 
 class StereoMatcher:

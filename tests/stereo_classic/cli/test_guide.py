@@ -185,3 +185,19 @@ def test_pipelined_and_in_turn_give_the_same_events_and_pictures(walk, tmp_path,
         assert "; after the first frame (" in err  # the rate without the one-time loading of the first frame
         outs[flag] = {p.name: p.read_bytes() for p in sorted(out.iterdir())}
     assert outs["--pipeline"] == outs["--no-pipeline"] and len(outs["--pipeline"]) == 13
+
+
+def test_kernels_loaded_before_the_first_frame(walk, tmp_path, monkeypatch):
+    from stereo_classic.cli import guide as guide_cli
+    from stereo_classic.pipeline import Localizer
+
+    loaded = []
+
+    def localizer(*args, **kwargs):
+        assert loaded, "a frame began before the kernels were loaded"
+        return Localizer(*args, **kwargs)
+
+    monkeypatch.setattr(guide_cli, "load_kernels", lambda params: loaded.append(params))
+    monkeypatch.setattr(guide_cli, "Localizer", localizer)
+    assert main(_args(walk, tmp_path / "g")) == 0
+    assert [p.num_disparities for p in loaded] == [64]

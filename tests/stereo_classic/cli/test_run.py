@@ -613,3 +613,18 @@ def test_no_default_detector_hint_names_the_fetch_command(tmp_path, monkeypatch,
     hint = [line for line in captured.err.splitlines() if "no detector" in line]
     assert len(hint) == 1 and "python -m detectors fetch yolox_nano" in hint[0]
     assert captured.out.strip() == "depth only (no detector)"
+
+
+def test_kernels_loaded_before_the_first_frame_with_the_runs_parameters(tmp_path, monkeypatch):
+    # matching.load_kernels runs before the frame loop (whose clock a camera's first frame is measured by)
+    from stereo_classic.cli import run as run_cli
+
+    order = []
+    real_source = run_cli.run_source
+    monkeypatch.setattr(run_cli, "load_kernels", lambda params: order.append(("load", params)))
+    monkeypatch.setattr(run_cli, "run_source", lambda *a, **k: (order.append(("frames", None)),
+                                                                real_source(*a, **k))[1])
+    assert main(["run", "-o", str(tmp_path / "o"), "--scale", "0.25", "--save", "json", "--model", "none",
+                 "--num-disparities", "48", "--paths", "4"]) == 0
+    assert [step for step, _ in order] == ["load", "frames"]
+    assert order[0][1].num_disparities == 48 and order[0][1].paths == 4

@@ -508,6 +508,35 @@ class TestErrors:
 
 
 # --------------------------------------------------------------------------------------------------
+# load_kernels
+# --------------------------------------------------------------------------------------------------
+class TestLoadKernels:
+    def test_matches_once_per_setting(self, monkeypatch):
+        calls = []
+        real = matcher_mod._match
+        monkeypatch.setattr(matcher_mod, "_LOADED", set())
+        monkeypatch.setattr(matcher_mod, "_match", lambda left, right, params, *a, **k: (
+            calls.append((left.shape, left.flags.c_contiguous, right.flags.c_contiguous, params)),
+            real(left, right, params, *a, **k))[1])
+        assert matcher_mod.load_kernels(num_disparities=32, paths=4) is True
+        assert matcher_mod.load_kernels(SGMParams(num_disparities=96, paths=4)) is False  # the same kernels
+        assert matcher_mod.load_kernels(num_disparities=32, paths=8) is True
+        assert matcher_mod.load_kernels(num_disparities=32, cost="sad", min_disparity=-40) is True
+        # the pair the matcher's callers hand the kernels: C-contiguous uint8, wide enough for the range
+        assert [(c[0], c[1], c[2], c[3].paths, c[3].cost) for c in calls] == [
+            ((64, 95), True, True, 4, "census+grad"), ((64, 95), True, True, 8, "census+grad"),
+            ((64, 104), True, True, 3, "sad")]
+
+    def test_bad_parameters_named(self, monkeypatch):
+        monkeypatch.setattr(matcher_mod, "_LOADED", set())
+        with pytest.raises(ValueError, match="num_disparities"):
+            matcher_mod.load_kernels(num_disparities=-16)
+        with pytest.raises(ValueError, match="`params`"):
+            matcher_mod.load_kernels({"num_disparities": 16})
+        assert matcher_mod._LOADED == set()
+
+
+# --------------------------------------------------------------------------------------------------
 # estimate_memory, DisparityMap
 # --------------------------------------------------------------------------------------------------
 class TestEstimateMemory:
