@@ -12,6 +12,7 @@ and pool threads) going down runs of stripes (3 paths) or taking them in turn, w
 from __future__ import annotations
 
 import logging
+import math
 import os
 import time
 from collections.abc import Callable
@@ -116,8 +117,21 @@ def stripes(height: int) -> list[tuple[int, int]]:
     return [(edges[i], edges[i + 1]) for i in range(n) if edges[i + 1] > edges[i]]
 
 
+#: Seconds ``usable_cpus`` keeps what it read (a frame asks it about twenty times; each read opens files in /sys).
+CPUS_RECHECK_S = 1.0
+_cpus_read: list[float] = [0.0, -math.inf]  # [count, time.monotonic() of the read]
+
+
 def usable_cpus() -> int:
-    """CPUs this process may run on: the affinity mask, capped by a cgroup v2/v1 CPU quota when one is set."""
+    """CPUs this process may run on: the affinity mask, capped by a cgroup v2/v1 CPU quota when one is set (read
+    again once ``CPUS_RECHECK_S`` have passed)."""
+    now = time.monotonic()
+    if now - _cpus_read[1] >= CPUS_RECHECK_S:
+        _cpus_read[:] = [_read_usable_cpus(), now]
+    return int(_cpus_read[0])
+
+
+def _read_usable_cpus() -> int:
     try:
         n = len(os.sched_getaffinity(0))
     except (AttributeError, OSError):

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import ast
 import os
+import time
 from pathlib import Path
 
 import numpy as np
@@ -749,9 +750,16 @@ def test_horizontal_paths_are_exact_across_stripes(threads):
     np.testing.assert_array_equal(got, want)
 
 
-def test_usable_cpus_honours_the_affinity_mask():
+def test_usable_cpus_honours_the_affinity_mask(monkeypatch):
     n = core.usable_cpus()
     assert 1 <= n <= len(os.sched_getaffinity(0))
+    reads = []
+    monkeypatch.setattr(core.os, "sched_getaffinity", lambda pid: reads.append(pid) or {0})
+    monkeypatch.setattr(core, "_cpus_read", [n, time.monotonic()])  # read just now: kept
+    assert core.usable_cpus() == n and reads == []
+    monkeypatch.setattr(core, "_cpus_read", [n, time.monotonic() - core.CPUS_RECHECK_S])  # read long enough ago
+    assert core.usable_cpus() == 1 and reads == [0]
+    assert core.usable_cpus() == 1 and reads == [0]
 
 
 @pytest.mark.parametrize("paths, kernel", [(3, "three_path_stripe"), (8, "sgm_pass")])
