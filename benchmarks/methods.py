@@ -250,7 +250,10 @@ def opencv_methods() -> list[Method]:
 #: (name, overrides of SGMParams(), what it is) of the matcher variants; short: every one runs on every scene.
 _MATCHER_VARIANTS: tuple[tuple[str, dict[str, Any], str], ...] = (
     ("sc-default", {}, "stereo_classic SGMParams() defaults"),
-    ("sc-mccnn", {"cost": "mccnn"}, "the default with the learned cost of the shipped MC-CNN fast network"),
+    ("sc-mccnn", {"cost": "mccnn"},
+     "the default with the learned cost of the shipped MC-CNN fast network, census in equal parts"),
+    ("sc-mccnn-net", {"cost": "mccnn", "feature_census": 0.0},
+     "sc-mccnn without its census share: the network alone (sc-mccnn before the census share)"),
     ("sc-mccnn-int8", {"cost": "mccnn", "feature_model": "mccnn-fast-int8"},
      "sc-mccnn with the paper's fast network in int8 (the other shipped one: about twice the time)"),
     ("sc-census-8", {"cost": "census", "paths": 8, "lr_check": None, "fill_holes": False},

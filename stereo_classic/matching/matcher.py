@@ -266,7 +266,8 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
                                 lr_check=params.lr_check is not None,
                                 cost="features" if params.learned else params.cost,
                                 block_size=params.block_size, threads=params.effective_threads,
-                                feature_channels=channels) + features
+                                feature_channels=channels,
+                                feature_census=params.effective_feature_census > 0) + features
     conversion = _conversion_bytes((height, width), dtype)
     post = 4 * pixels  # the border columns' copy
     if params.speckle_size > 0 and params.fill_holes:
@@ -359,6 +360,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         num_disparities=params.num_disparities, block_size=params.block_size, census_window=params.census_window,
         p1=params.effective_p1, p2=params.effective_p2, p1_cross=params.effective_p1_vertical,
         cross_texture=params.p1_vertical_texture, outside_cost=params.outside_cost, paths=params.paths,
+        feature_census=params.effective_feature_census,
         adaptive_p2=params.effective_adaptive_p2, weak_texture_gain=params.weak_texture_gain,
         uniqueness=params.uniqueness / 100.0, lr_check=params.lr_check, subpixel=params.subpixel,
         threads=params.effective_threads,
@@ -490,7 +492,8 @@ def load_kernels(params: SGMParams | None = None, **overrides: Any) -> bool:
     False
     """
     params = _resolve_params(params, overrides)
-    key = (params.cost, params.feature_model, params.paths, params.effective_threads, params.border_check)
+    key = (params.cost, params.feature_model, params.effective_feature_census > 0, params.paths,
+           params.effective_threads, params.border_check)
     if key in _LOADED:
         return False
     width = max(abs(params.min_disparity), abs(params.max_disparity)) + 64

@@ -15,7 +15,6 @@ ValueError), so that the flags, the config file and the docs are generated from 
 from __future__ import annotations
 
 import dataclasses
-import math
 import numbers
 import os
 from dataclasses import dataclass
@@ -24,6 +23,13 @@ from typing import Any
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching._kernels.cost import FEATURE_SCALE
 from stereo_classic.matching._kernels.features import FEATURE_OUTSIDE
+from stereo_classic.matching.parsing import (
+    MEMORY_LIMIT_ENV,
+    default_memory_limit,
+    parse_bytes,
+    parse_census_window,
+    parse_lr_check,
+)
 
 __all__ = [
     "SGMParams",
@@ -43,8 +49,6 @@ __all__ = [
     "parse_lr_check",
 ]
 
-#: Environment variable that sets the default memory limit (bytes, or with a K/M/G/T suffix: "4G").
-MEMORY_LIMIT_ENV = "STEREO_CLASSIC_MEMORY_LIMIT"
 #: Matching costs: census + x-gradient (default), census transform + Hamming distance, or the paper's sum of
 #: absolute differences.
 COSTS = ("census+grad", "census", "sad", "mccnn", "features")
@@ -97,6 +101,10 @@ _LEARNED_VERTICAL = 1.5
 # border_reach of the classical costs (see the field).
 _BORDER_REACH = 0.5
 _LEARNED_P2 = round(24.3 / 2 * FEATURE_SCALE)
+# The census cost's share of "mccnn": equal parts, the two similarities (each on the learned cost's scale) weighed
+# alike; not fitted. Measured on the shared scenes (docs/matching.md, "Census beside the network"): better than the
+# network alone on the Middlebury-style, 2001 and driving families, the same on 2005/2006.
+_MCCNN_CENSUS = 0.5
 
 
 def _is_int(value: Any) -> bool:
@@ -105,80 +113,6 @@ def _is_int(value: Any) -> bool:
 
 def _is_real(value: Any) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool)
-
-
-_SUFFIXES = {"": 1, "B": 1, "K": 1024, "KB": 1024, "KIB": 1024, "M": 1024**2, "MB": 1024**2, "MIB": 1024**2,
-             "G": 1024**3, "GB": 1024**3, "GIB": 1024**3, "T": 1024**4, "TB": 1024**4, "TIB": 1024**4}
-
-
-def parse_bytes(text: str, *, name: str = MEMORY_LIMIT_ENV) -> int:
-    """Parse a byte count such as ``"4000000000"``, ``"4G"`` or ``"512 MiB"`` (binary units).
-
-    Raises ``ValueError`` naming ``name`` when the text is not a positive size.
-    """
-    cleaned = str(text).strip().upper().replace(" ", "")
-    number = cleaned.rstrip("KMGTIB")
-    suffix = cleaned[len(number):]
-    try:
-        value = float(number)
-    except ValueError:
-        value = math.nan
-    if suffix not in _SUFFIXES or not math.isfinite(value) or value <= 0:
-        raise ValueError(f"`{name}` must be a positive byte count such as 4000000000 or 4G, got {text!r}")
-    return int(value * _SUFFIXES[suffix])
-
-
-def _physical_memory() -> int | None:
-    try:
-        pages = os.sysconf("SC_PHYS_PAGES")
-        page_size = os.sysconf("SC_PAGE_SIZE")
-    except (AttributeError, ValueError, OSError):
-        return None
-    if pages <= 0 or page_size <= 0:
-        return None
-    return int(pages) * int(page_size)
-
-
-def default_memory_limit() -> int:
-    """The memory limit used when ``SGMParams.memory_limit`` is None, in bytes.
-
-    ``$STEREO_CLASSIC_MEMORY_LIMIT`` when set (bytes or "4G"), else 50 % of physical RAM,
-    else (RAM unknown) 4 GiB.
-    """
-    env = os.environ.get(MEMORY_LIMIT_ENV)
-    if env is not None and env.strip():
-        return parse_bytes(env)
-    physical = _physical_memory()
-    return physical // 2 if physical else 4 * 1024**3
-
-
-def parse_census_window(text: str) -> tuple[int, int]:
-    """A census window written ``9x7`` (or ``9,7``) as (width, height); ValueError otherwise.
-
-    >>> parse_census_window("9x7"), parse_census_window("5,5")
-    ((9, 7), (5, 5))
-    """
-    parts = text.lower().replace(",", "x").split("x")
-    try:
-        if len(parts) != 2:
-            raise ValueError
-        return int(parts[0]), int(parts[1])
-    except ValueError:
-        raise ValueError(f"expected WIDTHxHEIGHT such as 9x7, got {text!r}") from None
-
-
-def parse_lr_check(text: str) -> float | None:
-    """A left-right tolerance in pixels, or None for ``off`` / ``none`` / ``no``; ValueError otherwise.
-
-    >>> parse_lr_check("1.5"), parse_lr_check("off")
-    (1.5, None)
-    """
-    if text.lower() in ("off", "none", "no"):
-        return None
-    try:
-        return float(text)
-    except ValueError:
-        raise ValueError(f"expected a number of pixels or 'off', got {text!r}") from None
 
 
 @dataclass(frozen=True)
@@ -232,6 +166,11 @@ class SGMParams:
         grey levels 0..255.
     feature_similarity : {"dot", "l1"}
         Learned costs: ``1 - <fL, fR>`` of the unit feature vectors (default) or their L1 distance over sqrt(C).
+    feature_census : float or None
+        Learned costs: the share (0 to 1) of the census cost (``census_window``, its Hamming distance over the bits)
+        in the cost, the rest the network's, both on the learned cost's scale. None: 0.5 for "mccnn" (the network
+        and census in equal parts: better than the network alone on the shared scenes, docs/matching.md), 0 for
+        "features" (a given network alone). See ``effective_feature_census``.
     onnx_provider : {"cpu", "cuda", "auto"}
         Learned costs: ONNX Runtime's execution provider ("auto": CUDA where this onnxruntime has it).
     census_window : (int, int)
@@ -343,6 +282,9 @@ class SGMParams:
         "choices": _FEATURE_INPUTS})
     feature_similarity: str = dataclasses.field(default="dot", metadata={
         "help": "learned cost: dot product of the unit features, or their L1 distance", "choices": FEATURE_SIMILARITIES})
+    feature_census: float | None = dataclasses.field(default=None, metadata={
+        "help": "learned cost: share of the census cost in it, 0..1 (default: 0.5 for mccnn, 0 for features)",
+        "metavar": "SHARE"})
     onnx_provider: str = dataclasses.field(default="cpu", metadata={
         "help": "learned cost: ONNX Runtime provider (auto: CUDA where available)", "choices": _PROVIDERS})
     adaptive_p2: bool = dataclasses.field(default=False, metadata={"help": "divide P2 by the intensity gradient"})
@@ -494,6 +436,10 @@ class SGMParams:
             normalise("feature_model", model)
         if self.cost == "features" and self.feature_model is None:
             fail("feature_model", "an ONNX feature network for cost 'features'", None)
+        if self.feature_census is not None:
+            if not _is_real(self.feature_census) or not 0.0 <= self.feature_census <= 1.0:
+                fail("feature_census", "None (by cost) or a share between 0 and 1", self.feature_census)
+            normalise("feature_census", float(self.feature_census))
 
     @property
     def learned(self) -> bool:
@@ -512,6 +458,16 @@ class SGMParams:
         if not self.learned:
             return None
         return self.feature_model if self.feature_model is not None else "mccnn-fast-dw"
+
+    @property
+    def effective_feature_census(self) -> float:
+        """The census cost's share of a learned cost: ``feature_census``, or when it is None 0.5 for "mccnn" and 0
+        for "features"; 0 for a classical cost."""
+        if not self.learned:
+            return 0.0
+        if self.feature_census is not None:
+            return self.feature_census
+        return _MCCNN_CENSUS if self.cost == "mccnn" else 0.0
 
     # -- derived values ---------------------------------------------------------------------
     @property

@@ -49,19 +49,27 @@ def _sobel_reference(image: np.ndarray) -> np.ndarray:
 
 
 def feature_cost_reference(left_features, right_features, *, similarity="dot", min_disparity=0, num_disparities=16,
-                           p2=120) -> np.ndarray:
+                           p2=120, census_share=0.0, images=None, census_window=(9, 7)) -> np.ndarray:
     """(H, W, D) int64 learned cost from (H, C, W) int8 unit features (``learned.FeatureModel.features``):
-    ``FEATURE_SCALE * (1 - sum(qL * qR) / FEATURE_QUANT**2)`` (dot) or ``FEATURE_SCALE * sum|qL - qR| / (FEATURE_QUANT
-    * sqrt(C))`` (L1), rounded half up and clipped to [0, 2 * FEATURE_SCALE]; a match outside the right image
-    costs ``FEATURE_OUTSIDE`` (``p2`` is not used: kept for the callers)."""
+    ``s * FEATURE_SCALE * (1 - sum(qL * qR) / FEATURE_QUANT**2)`` (dot) or ``s * FEATURE_SCALE * sum|qL - qR| /
+    (FEATURE_QUANT * sqrt(C))`` (L1), ``s = 1 - census_share``, rounded half up and clipped to [0, 2 * FEATURE_SCALE];
+    with a ``census_share`` > 0 plus ``(h * m + 128) >> 8``, ``h`` the Hamming distance of the census codes of
+    ``images`` (the (left, right) grey pair), ``m = round(256 * census_share * 2 * FEATURE_SCALE / bits)``, at most
+    ``2 * FEATURE_SCALE`` in all; a match outside the right image costs ``FEATURE_OUTSIDE`` (``p2`` is not used:
+    kept for the callers)."""
     from stereo_classic.matching._kernels.features import FEATURE_OUTSIDE, FEATURE_QUANT, FEATURE_SCALE
 
     H, C, W = left_features.shape
     D = num_disparities
     cmax = 2 * FEATURE_SCALE
+    own = 1.0 - census_share
     out = np.full((H, W, D), FEATURE_OUTSIDE, np.int64)
     fl = left_features.astype(np.int64)
     fr = right_features.astype(np.int64)
+    if census_share > 0:
+        codes = [census_reference(img, census_window) for img in images]
+        bits = census_window[0] * census_window[1] - 1
+        m = int(round(256 * census_share * 2 * FEATURE_SCALE / bits))
     for k in range(D):
         d = min_disparity + k
         for x in range(W):
@@ -70,11 +78,15 @@ def feature_cost_reference(left_features, right_features, *, similarity="dot", m
                 continue
             if similarity == "dot":
                 acc = (fl[:, :, x] * fr[:, :, xr]).sum(axis=1)
-                v = FEATURE_SCALE + 0.5 - acc * (FEATURE_SCALE / FEATURE_QUANT**2)
+                v = own * FEATURE_SCALE + 0.5 - acc * (own * FEATURE_SCALE / FEATURE_QUANT**2)
             else:
                 acc = np.abs(fl[:, :, x] - fr[:, :, xr]).sum(axis=1)
-                v = 0.5 + acc * (FEATURE_SCALE / (FEATURE_QUANT * np.sqrt(C)))
-            out[:, x, k] = np.floor(np.clip(v, 0, cmax)).astype(np.int64)
+                v = 0.5 + acc * (own * FEATURE_SCALE / (FEATURE_QUANT * np.sqrt(C)))
+            cost = np.floor(np.clip(v, 0, cmax)).astype(np.int64)
+            if census_share > 0:
+                ham = np.array([bin(int(a) ^ int(b)).count("1") for a, b in zip(codes[0][:, x], codes[1][:, xr])])
+                cost = np.minimum(cost + ((ham * m + 128) >> 8), cmax)
+            out[:, x, k] = cost
     return out
 
 

@@ -16,9 +16,10 @@ from benchmarks.methods import (
 
 def test_matcher_variants_and_their_settings():
     methods = {m.name: m for m in stereo_classic_methods()}
-    assert list(methods) == ["sc-default", "sc-mccnn", "sc-mccnn-int8", "sc-census-8", "sc-census-3", "sc-8",
-                             "sc-sad-8"]
+    assert list(methods) == ["sc-default", "sc-mccnn", "sc-mccnn-net", "sc-mccnn-int8", "sc-census-8", "sc-census-3",
+                             "sc-8", "sc-sad-8"]
     assert methods["sc-mccnn"].params["cost"] == "mccnn"
+    assert (methods["sc-mccnn"].params["feature_census"], methods["sc-mccnn-net"].params["feature_census"]) == (None, 0.0)
     default = sc.SGMParams()
     assert methods["sc-default"].params["cost"] == default.cost and methods["sc-default"].params["paths"] == default.paths
     old = methods["sc-census-8"].params

@@ -12,7 +12,6 @@ and pool threads) going down runs of stripes (3 paths) or taking them in turn, w
 from __future__ import annotations
 
 import logging
-import math
 import os
 import time
 from collections.abc import Callable
@@ -44,6 +43,7 @@ from stereo_classic.matching._kernels.cost import (
     CostImages,
     CostSettings,
     RowCostBuffers,
+    census_bits,
     census_quarters_rows,
     cost_volume_kernel,
     largest_p2,
@@ -53,7 +53,7 @@ from stereo_classic.matching._kernels.features import FEATURES, check_features, 
 from stereo_classic.matching._kernels.rowpass import (RowPassBuffers, StripePlan, row_pass_buffers, row_pass_bytes,
                                                      three_path_stripe)
 from stereo_classic.matching._kernels.texture import texture_table, weak_texture_rows
-from stereo_classic.matching._kernels.workers import run_chained, run_stripes, run_tasks
+from stereo_classic.matching._kernels.workers import run_chained, run_stripes, run_tasks, usable_cpus
 
 __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume", "check_penalties", "cost_scale",
            "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
@@ -117,46 +117,6 @@ def stripes(height: int) -> list[tuple[int, int]]:
     return [(edges[i], edges[i + 1]) for i in range(n) if edges[i + 1] > edges[i]]
 
 
-#: Seconds ``usable_cpus`` keeps what it read (a frame asks it about twenty times; each read opens files in /sys).
-CPUS_RECHECK_S = 1.0
-_cpus_read: list[float] = [0.0, -math.inf]  # [count, time.monotonic() of the read]
-
-
-def usable_cpus() -> int:
-    """CPUs this process may run on: the affinity mask, capped by a cgroup v2/v1 CPU quota when one is set (read
-    again once ``CPUS_RECHECK_S`` have passed)."""
-    now = time.monotonic()
-    if now - _cpus_read[1] >= CPUS_RECHECK_S:
-        _cpus_read[:] = [_read_usable_cpus(), now]
-    return int(_cpus_read[0])
-
-
-def _read_usable_cpus() -> int:
-    try:
-        n = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        n = os.cpu_count() or 1
-    quota = None
-    try:
-        with open("/sys/fs/cgroup/cpu.max", encoding="ascii") as fh:
-            q, period = fh.read().split()[:2]
-            if q != "max":
-                quota = float(q) / float(period)
-    except (OSError, ValueError):
-        try:
-            with open("/sys/fs/cgroup/cpu/cpu.cfs_quota_us", encoding="ascii") as fh:
-                q_us = float(fh.read())
-            with open("/sys/fs/cgroup/cpu/cpu.cfs_period_us", encoding="ascii") as fh:
-                p_us = float(fh.read())
-            if q_us > 0 and p_us > 0:
-                quota = q_us / p_us
-        except (OSError, ValueError):
-            pass
-    if quota is not None:
-        n = min(n, max(1, int(quota + 0.5)))
-    return max(1, n)
-
-
 def workers_for(threads: int, n_stripes: int) -> int:
     """How many workers run ``n_stripes`` stripes for ``threads`` threads: never more than stripes, nor than CPUs
     to run them (extra threads would only time-slice; measured on 2 cores: 8 workers cost 1.21x the CPU time
@@ -188,12 +148,13 @@ def _reset_buffers(b: ThreadBuffers, D: int) -> None:
         M[:] = 0
 
 
-def _row_cost_buffers(W: int, D: int, kind: int, h: int, channels: int = 0) -> RowCostBuffers:
+def _row_cost_buffers(W: int, D: int, kind: int, h: int, channels: int = 0, census: bool = False) -> RowCostBuffers:
+    """``census``: ``FEATURES`` with a census term (its codes' quarters, as the census kinds)."""
     grad, feat = kind not in (CENSUS, FEATURES), kind == FEATURES  # feat: right rows and channel sums, float32
     L = 2 * (W + 2 * h + D - 1)  # two reversed right rows
     return RowCostBuffers(
         colsum=np.zeros((W + 2 * h) * D if grad else 1, np.int16), hsum=np.zeros(D, np.int16),
-        rrev=np.zeros(4 * (W + D - 1) if kind not in (SAD, FEATURES) else 1, np.uint16),
+        rrev=np.zeros(4 * (W + D - 1) if kind not in (SAD, FEATURES) or census else 1, np.uint16),
         srev=np.zeros(L if grad else 1, np.int16), irev=np.zeros(L if kind == SAD else 1, np.int16),
         floor=np.zeros(D, np.int16), frev=np.zeros(max(1, channels) * (W + D - 1) if feat else 1, np.float32),
         facc=np.zeros(D if feat else 1, np.float32))
@@ -205,9 +166,9 @@ def _set_floor(bufs: RowCostBuffers, settings: CostSettings) -> None:
     bufs.floor[settings.num_disparities:] = settings.invalid_cost
 
 
-def _row_cost_bytes(W: int, D: int, kind: int, h: int, channels: int = 0) -> int:
+def _row_cost_bytes(W: int, D: int, kind: int, h: int, channels: int = 0, census: bool = False) -> int:
     if kind == FEATURES:
-        return 4 * max(1, channels) * (W + D - 1) + 4 * D + 2 * D + 10
+        return 4 * max(1, channels) * (W + D - 1) + 4 * D + 2 * D + 10 + (8 * (W + D - 1) if census else 0)
     grad = kind != CENSUS
     L = 2 * (W + 2 * h + D - 1)
     return (2 * (W + 2 * h) * D if grad else 2) + 2 * D + (8 * (W + D - 1) if kind != SAD else 2) + \
@@ -275,7 +236,8 @@ def scratch_allocator(workspace: Workspace | None) -> Callable[[str, tuple[int, 
 
 
 def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 8, lr_check: bool = True,
-                 cost: str = "census", block_size: int = 5, threads: int = 2, feature_channels: int = 0) -> int:
+                 cost: str = "census", block_size: int = 5, threads: int = 2, feature_channels: int = 0,
+                 feature_census: bool = False) -> int:
     """Bytes ``sgm_match`` allocates for an image of this size, without the input images.
 
     4 and 8 paths: the int16 sum volume (2 * H * W * D) dominates; the rest is the two float32 outputs, the
@@ -283,7 +245,8 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     2 * (D + 2) * (3 W + 3 H) bytes per worker thread, at most one worker per stripe). 3 paths (the one-sweep
     kernel): no volume, W x D row buffers, the costs of WARMUP_ROWS rows and the top path's skewed vectors per
     worker (about 2 * D * (20 W + H) bytes). ``lr_check`` does not change it. D is the padded number
-    (``padded_disparities``). ``cost="features"``: int8 features (2 * C * H * W, C = ``feature_channels``).
+    (``padded_disparities``). ``cost="features"``: int8 features (2 * C * H * W, C = ``feature_channels``), and with
+    ``feature_census`` (a census term) the census codes as the census costs have them.
     """
     H, W, D = int(height), int(width), padded_disparities(num_disparities, paths)
     kind = _KIND.get(cost, CENSUS)
@@ -294,18 +257,19 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     total += 7 * H * W  # the penalty factors (uint8) and the int16 gradient and int32 sums they are made from
     if kind == FEATURES:
         total += 2 * int(feature_channels) * H * W
-    elif kind != SAD:  # census codes, four uint16 quarters per pixel, and the two padded images they are made from
-        total += 2 * 8 * H * W + 2 * (H + 20) * (W + 20)
+    if kind not in (SAD, FEATURES) or (kind == FEATURES and feature_census):  # census codes, four uint16 quarters
+        total += 2 * 8 * H * W + 2 * (H + 20) * (W + 20)  # per pixel, and the two padded images they are made from
     if kind not in (CENSUS, FEATURES):  # prefiltered images (gradient; and intensity for SAD)
         total += 2 * 2 * H * W * (2 if kind == SAD else 1) + 2 * (H + 2) * (W + 2) * 2
     if paths == 3:
-        return total + workers * (row_pass_bytes(H, W, D, WARMUP_ROWS) + _row_cost_bytes(W, D, kind, h, feature_channels))
+        cost_state = _row_cost_bytes(W, D, kind, h, feature_channels, feature_census)
+        return total + workers * (row_pass_bytes(H, W, D, WARMUP_ROWS) + cost_state)
     total += 2 * (H + workers) * W * D  # sum volume with one scratch row per worker
     slots = 2 + (W + H + 1) + (W + 2 * H + 1) + (W + 2)
     per_thread = 2 * E * slots + 2 * slots  # path vectors + minima
     per_thread += 2 * W * D + 2 * W * D + 2 * W + 2 * D + 2 * 2 * (W + D) + 8 * W  # row costs, row sums and
     # minima, k index, right view, best
-    per_thread += _row_cost_bytes(W, D, kind, h, feature_channels)  # the cost state
+    per_thread += _row_cost_bytes(W, D, kind, h, feature_channels, feature_census)  # the cost state
     return total + workers * per_thread
 
 
@@ -315,14 +279,16 @@ def _placeholder(dtype, ndim: int) -> np.ndarray:
 
 
 def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, weak_texture_gain=1.0,
-                  features=None) -> CostImages:
+                  features=None, feature_census=False) -> CostImages:
     """The cost's input images of both views: census quarters and / or the x-Sobel channel (with the image itself
     for SAD), made in stripes of rows of both images on ``threads`` workers, into arrays of ``workspace``; and the
     left image's penalty factors (``weak_texture_scale``, by the left view's stripes). ``cost="features"``: ``features``
-    is the pair (left, right) of (H, C, W) int8 arrays the row cost reads (``learned.FeatureModel.features``)."""
+    is the pair (left, right) of (H, C, W) int8 arrays the row cost reads (``learned.FeatureModel.features``), and
+    ``feature_census`` asks for the census codes of its census term."""
     H, W = left.shape
     w, h = census_window
-    census, sobel = cost in ("census", "census+grad"), cost in ("sad", "census+grad")
+    census = cost in ("census", "census+grad") or (cost == "features" and feature_census)
+    sobel = cost in ("sad", "census+grad")
 
     scratch = scratch_allocator(workspace)
 
@@ -376,7 +342,8 @@ def _cost_settings(cost: str, dmin: int, n_disp: int, block_size: int, census_wi
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
          path_mask, adaptive_p2, uniqueness, lr_check, subpixel, threads, select=True, keep_sums=False,
          workspace=None, return_right=False, lr_mode="full", scratch_output=False, weak_texture_gain=1.0,
-         features=None, feature_similarity="dot", p1_cross=None, cross_texture=True, outside_cost=None):
+         features=None, feature_similarity="dot", p1_cross=None, cross_texture=True, outside_cost=None,
+         feature_census=0.0):
     if cost not in _KIND:
         raise ValueError(f"`cost` must be one of {sorted(_KIND)}, got {cost!r}")
     p1_cross = int(p1) if p1_cross is None else int(p1_cross)
@@ -394,17 +361,20 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     cost_settings = _cost_settings(cost, dmin, n_disp, block_size, census_window, p2_top, outside_cost)
     shift = cost_settings.shift
     p1s, p2s = int(p1) >> shift, int(p2) >> shift
-    cost_settings, channels = with_features(cost_settings, features, feature_similarity, H, W)
+    census_term = kind == FEATURES and feature_census > 0
+    cost_settings, channels = with_features(cost_settings, features, feature_similarity, H, W, feature_census,
+                                            census_bits(census_window))
     timings = {}
 
     t0 = time.perf_counter()
-    images = _prepare_cost(left, right, cost, census_window, threads, workspace, weak_texture_gain, features)
+    images = _prepare_cost(left, right, cost, census_window, threads, workspace, weak_texture_gain, features,
+                           census_term)
     t1 = time.perf_counter()
     timings["cost"] = (t1 - t0) * 1e3
 
     bands = stripes(H)
     n_workers = workers_for(threads, len(bands))
-    key = (one_sweep, bool(keep_sums), H, W, D, kind, h, n_workers, channels)
+    key = (one_sweep, bool(keep_sums), H, W, D, kind, h, n_workers, channels, census_term)
     if workspace is not None and workspace.fits(*key):
         S, bufs = workspace.S, workspace.bufs
     else:
@@ -413,7 +383,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
         else:
             S = np.empty((H + n_workers, W, D), np.int16)  # + one scratch row per worker for warm-up rows
         # per worker: the cost state and the kernel's row buffers
-        bufs = [(_row_cost_buffers(W, D, kind, h, channels),
+        bufs = [(_row_cost_buffers(W, D, kind, h, channels, census_term),
                  row_pass_buffers(H, W, D, WARMUP_ROWS) if one_sweep else _thread_buffers(H, W, D))
                 for _ in range(n_workers)]
         if workspace is not None:
@@ -508,8 +478,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
               threads: int = 2, workspace: Workspace | None = None, return_right: bool = False,
               lr_mode: str = "full", scratch_output: bool = False, weak_texture_gain: float = 1.0,
               features: tuple[np.ndarray, np.ndarray] | None = None, feature_similarity: str = "dot",
-              p1_cross: int | None = None, cross_texture: bool = True, outside_cost: int | None = None
-              ) -> tuple[np.ndarray, np.ndarray | None, dict[str, float]]:
+              p1_cross: int | None = None, cross_texture: bool = True, outside_cost: int | None = None,
+              feature_census: float = 0.0) -> tuple[np.ndarray, np.ndarray | None, dict[str, float]]:
     """Semi-global matching of a rectified grey pair (inputs already validated by the caller).
 
     Parameters
@@ -541,6 +511,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
         caller that makes a new map of it anyway).
     features, feature_similarity : ``cost="features"``: the int8 unit features of both views, (H, C, W) each
         (``learned.FeatureModel.features``), and "dot" or "l1" (``features.feature_cost_terms``: the cost units).
+    feature_census : ``cost="features"``: the share (0 to 1) of the census cost (``census_window``) in the cost;
+        0: the learned cost alone (``features.feature_row_cost``).
 
     Returns
     -------
@@ -573,7 +545,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
                                    scratch_output=scratch_output and workspace is not None,
                                    weak_texture_gain=weak_texture_gain, features=features,
                                    feature_similarity=feature_similarity, p1_cross=p1_cross,
-                                   cross_texture=cross_texture, outside_cost=outside_cost)
+                                   cross_texture=cross_texture, outside_cost=outside_cost,
+                                   feature_census=feature_census)
     return disp, dispR, timings
 
 
@@ -590,7 +563,8 @@ def sum_volume(left: np.ndarray, right: np.ndarray, *, path_mask: int = ALL_PATH
 
 def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_disparity: int = 0,
                 num_disparities: int = 64, block_size: int = 5, census_window: tuple[int, int] = (9, 7),
-                p2: int = 80, features=None, feature_similarity: str = "dot", outside_cost=None) -> np.ndarray:
+                p2: int = 80, features=None, feature_similarity: str = "dot", outside_cost=None,
+                feature_census: float = 0.0) -> np.ndarray:
     """(H, W, D) int16 matching cost, entry [y, x, k] for disparity min_disparity + k (``outside_cost``: sgm_match's).
 
     Exactly the costs the passes use (``cost.row_cost``, row by row; SAD scaled by ``cost_scale``, which depends on
@@ -605,10 +579,12 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
     n_disp = int(num_disparities)
     D = padded_disparities(n_disp)  # as the one-sweep kernel holds them
     settings = _cost_settings(cost, int(min_disparity), n_disp, block_size, census_window, int(p2), outside_cost)
-    settings, channels = with_features(settings, features, feature_similarity, H, W)
-    images = _prepare_cost(left, right, cost, census_window, features=features)
+    census_term = kind == FEATURES and feature_census > 0
+    settings, channels = with_features(settings, features, feature_similarity, H, W, feature_census,
+                                       census_bits(census_window))
+    images = _prepare_cost(left, right, cost, census_window, features=features, feature_census=census_term)
     out = np.empty((H, W, D), np.int16)
-    bufs = _row_cost_buffers(W, D, kind, settings.half_block, channels)
+    bufs = _row_cost_buffers(W, D, kind, settings.half_block, channels, census_term)
     _set_floor(bufs, settings)
     cost_volume_kernel(images, settings, bufs, out)
     return np.ascontiguousarray(out[:, :, :n_disp])

@@ -155,6 +155,8 @@ class CostSettings(NamedTuple):
         channel sum of the int8 products (dot) or absolute differences (L1), exact in float32.
     outside_cost : int
         Cost of a match outside the right image when >= 0 (neutral: such a winner is unknown); -1: ``invalid_cost``.
+    feature_census_mul : int
+        ``FEATURES``: the census term's multiplier (``features.census_term_mul``), 0: the learned cost alone.
     """
 
     kind: int
@@ -169,6 +171,7 @@ class CostSettings(NamedTuple):
     feature_base: float = 0.0
     feature_mul: float = 0.0
     outside_cost: int = -1
+    feature_census_mul: int = 0
 
 
 def census_bits(census_window: tuple[int, int]) -> int:
@@ -275,7 +278,8 @@ class RowCostBuffers(NamedTuple):
     hsum : (D,) int16
         Window sum of the current pixel (the 16 bits hold the unsigned sum, at most 21 * 21 * 125 < 65536).
     rrev : (4 * (W + D - 1),) uint16
-        Census code quarters of the current right row, reversed ((1,) for SAD).
+        Census code quarters of the current right row, reversed ((1,) for SAD and for ``FEATURES`` without a census
+        term).
     srev, irev : (2 * (W + 2h + D - 1),) int16
         Gradient and intensity channels of two right rows (the one entering the column window, the one leaving
         it), reversed ((1,) for census; irev (1,) but for SAD).
@@ -423,7 +427,7 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     """
     if cost.kind == FEATURES:  # learned features: a cost of their own (``feature_row_cost``)
         feature_row_cost(images.left_features, images.right_features, cost, y, bufs.frev, bufs.facc, bufs.floor,
-                         crow)
+                         crow, images.left_code, images.right_code, bufs.rrev, bufs.hsum)
         return
     lcode = images.left_code
     rcode = images.right_code

@@ -12,10 +12,11 @@ import numpy as np
 from numba import njit
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
-from stereo_classic.matching._kernels.intrinsics import max16
+from stereo_classic.matching._kernels.intrinsics import add16, max16, min16, popxor16
 
-__all__ = ["FEATURES", "FEATURE_SCALE", "FEATURE_QUANT", "FEATURE_OUTSIDE", "FEATURE_SIMILARITIES", "check_features",
-           "feature_cost_terms", "feature_row_cost", "quantise_rows", "with_features"]
+__all__ = ["FEATURES", "FEATURE_SCALE", "FEATURE_QUANT", "FEATURE_OUTSIDE", "FEATURE_SIMILARITIES", "CENSUS_MUL_SHIFT",
+           "census_term_mul", "check_features", "feature_cost_terms", "feature_row_cost", "quantise_rows",
+           "with_features"]
 
 _U = np.uint64  # unsigned indices: plain vector loads (as in cost.py)
 
@@ -54,8 +55,24 @@ class _NoAlias(CompilerBase):
         return [DefaultPassBuilder.define_nopython_pipeline(self.state)]
 
 
+#: The census term of a learned cost is ``(h * census_mul + 2**(CENSUS_MUL_SHIFT - 1)) >> CENSUS_MUL_SHIFT`` for a
+#: Hamming distance ``h`` (``census_term_mul``): exact integers, rounded half up.
+CENSUS_MUL_SHIFT = 8
+
+
+def census_term_mul(share: float, bits: int) -> int:
+    """``CostSettings.feature_census_mul``: the census term's multiplier, so that a Hamming distance of all ``bits``
+    bits costs ``share`` of the learned cost's range (``2 * FEATURE_SCALE``, in ``2**CENSUS_MUL_SHIFT``-ths); 0 for
+    a share of 0 (no census term).
+
+    >>> census_term_mul(0.5, 62), (62 * census_term_mul(0.5, 62) + 128) >> CENSUS_MUL_SHIFT  # all bits: half of 50
+    (103, 25)
+    """
+    return int(round((1 << CENSUS_MUL_SHIFT) * float(share) * 2 * FEATURE_SCALE / int(bits))) if share > 0 else 0
+
+
 @njit(cache=True, nogil=True, pipeline_class=_NoAlias)
-def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow):  # pragma: no cover - numba
+def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow, lcode, rcode, rrev, ham):  # pragma: no cover
     """``row_cost`` of ``FEATURES``: ``crow[x * D + k]`` from the int8 feature vectors of row ``y``.
 
     ``lfeat``, ``rfeat``: (H, C, W) int8 (``CostImages``). The right row is copied reversed into ``frev`` as
@@ -67,6 +84,12 @@ def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow):  # pragma:
     ``clip(feature_base + sum * feature_mul, 0, cmax)`` truncated to int16; matches outside the right image get
     ``cost.outside_cost`` (``FEATURE_OUTSIDE`` by default, a neutral cost; -1: ``invalid_cost``), the padding
     ``invalid_cost`` (``floor``) as in ``row_cost``.
+
+    With ``cost.feature_census_mul`` > 0 (``SGMParams.feature_census``) the cost is a mix of the learned cost and the
+    census cost: ``feature_base`` and ``feature_mul`` then hold the learned cost's share, and the census term
+    ``(h * feature_census_mul + 128) >> 8`` of the Hamming distance ``h`` of the census codes ``lcode`` / ``rcode``
+    ((H, W, 4) uint16 quarters, as ``row_cost`` reads them; ``rrev``: the right row's quarters reversed, ``ham``: (D,)
+    int16 scratch) is added, at most ``cmax`` in all.
     """
     C = lfeat.shape[1]
     W = lfeat.shape[2]
@@ -82,6 +105,14 @@ def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow):  # pragma:
     top = np.float32(cost.cmax)
     zero = np.float32(0.0)
     l1 = cost.feature_l1 != 0
+    cmul = np.int32(cost.feature_census_mul)
+    census = cmul > 0
+    cmax16 = np.int16(cost.cmax)
+    if census:  # rrev[q * nrr + j] = quarter q of the right code at column clamp(W - 1 - dmin - j), as row_cost
+        for j in range(nrr):
+            c = _clamp(W - 1 - dmin - j, W)
+            for q in range(4):
+                rrev[q * nrr + j] = rcode[y, c, q]
     for x in range(W):
         j0 = W - 1 - x
         for k in range(D):
@@ -109,6 +140,20 @@ def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow):  # pragma:
                 for k in range(D):
                     facc[k] += a * frev[_U(b + k)]
         cb = x * D
+        if census:
+            a0 = lcode[y, x, 0]
+            a1 = lcode[y, x, 1]
+            a2 = lcode[y, x, 2]
+            a3 = lcode[y, x, 3]
+            for k in range(D):
+                ham[k] = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j0 + nrr + k)])),
+                               add16(popxor16(a2, rrev[_U(j0 + 2 * nrr + k)]),
+                                     popxor16(a3, rrev[_U(j0 + 3 * nrr + k)])))
+            for k in range(D):
+                v = min(max(fbase + facc[k] * fmul, zero), top)
+                t = np.int16((np.int32(ham[k]) * cmul + np.int32(1 << (CENSUS_MUL_SHIFT - 1))) >> CENSUS_MUL_SHIFT)
+                crow[_U(cb + k)] = max16(min16(add16(np.int16(v), t), cmax16), floor[k])
+            continue
         for k in range(D):
             v = min(max(fbase + facc[k] * fmul, zero), top)
             crow[_U(cb + k)] = max16(np.int16(v), floor[k])
@@ -143,29 +188,34 @@ def _describe(features) -> str:
     return type(features).__name__
 
 
-def with_features(settings, features, similarity: str, H: int, W: int):
+def with_features(settings, features, similarity: str, H: int, W: int, census_share: float = 0.0,
+                  census_bits: int = 62):
     """(settings, C): a ``cost.CostSettings`` of the ``FEATURES`` kind completed with ``feature_cost_terms`` for the
-    checked ``features`` and their channel count; any other kind unchanged and 0."""
+    checked ``features`` and their channel count, and the census term's multiplier (``census_term_mul``) for
+    ``census_share`` of a census code of ``census_bits`` bits; any other kind unchanged and 0."""
     if settings.kind != FEATURES:
         return settings, 0
     channels = check_features(features, H, W)[0].shape[1]
-    terms = feature_cost_terms(similarity, channels)
-    return settings._replace(feature_l1=terms[0], feature_base=terms[1], feature_mul=terms[2]), channels
+    terms = feature_cost_terms(similarity, channels, census_share)
+    return settings._replace(feature_l1=terms[0], feature_base=terms[1], feature_mul=terms[2],
+                             feature_census_mul=census_term_mul(census_share, census_bits)), channels
 
 
 #: ``feature_similarity`` values of ``sgm_match``.
 FEATURE_SIMILARITIES = ("dot", "l1")
 
 
-def feature_cost_terms(similarity: str, channels: int) -> tuple[int, float, float]:
+def feature_cost_terms(similarity: str, channels: int, census_share: float = 0.0) -> tuple[int, float, float]:
     """(feature_l1, feature_base, feature_mul) of ``CostSettings`` for int8 unit features of ``channels`` channels:
     dot: ``FEATURE_SCALE * (1 - acc / FEATURE_QUANT**2)`` rounded; L1: ``FEATURE_SCALE * acc / (FEATURE_QUANT *
     sqrt(C))`` rounded (the L1 distance of unit vectors over sqrt(C): about their L2 distance, at most 2 for
-    vectors spread over the channels; clipped at 2)."""
+    vectors spread over the channels; clipped at 2). Both times ``1 - census_share`` (the rest of the range is the
+    census term's)."""
+    own = 1.0 - float(census_share)
     if similarity == "dot":
-        return 0, FEATURE_SCALE + 0.5, -FEATURE_SCALE / FEATURE_QUANT**2
+        return 0, own * FEATURE_SCALE + 0.5, -own * FEATURE_SCALE / FEATURE_QUANT**2
     if similarity == "l1":
-        return 1, 0.5, FEATURE_SCALE / (FEATURE_QUANT * float(np.sqrt(channels)))
+        return 1, 0.5, own * FEATURE_SCALE / (FEATURE_QUANT * float(np.sqrt(channels)))
     raise ValueError(f"`feature_similarity` must be one of {', '.join(map(repr, FEATURE_SIMILARITIES))}, "
                      f"got {similarity!r}")
 

@@ -6,16 +6,59 @@ change its result (the decomposition is fixed by the image size: see ``core.stri
 
 from __future__ import annotations
 
+import math
+import os
 import threading
+import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
-__all__ = ["pool", "run_chained", "run_stripes", "run_tasks"]
+__all__ = ["CPUS_RECHECK_S", "pool", "run_chained", "run_stripes", "run_tasks", "usable_cpus"]
 
 _POOL: ThreadPoolExecutor | None = None
 _POOL_LOCK = threading.Lock()
 _POOL_SIZE = 0
+
+
+#: Seconds ``usable_cpus`` keeps what it read (a frame asks it about twenty times; each read opens files in /sys).
+CPUS_RECHECK_S = 1.0
+_cpus_read: list[float] = [0.0, -math.inf]  # [count, time.monotonic() of the read]
+
+
+def usable_cpus() -> int:
+    """CPUs this process may run on: the affinity mask, capped by a cgroup v2/v1 CPU quota when one is set (read
+    again once ``CPUS_RECHECK_S`` have passed)."""
+    now = time.monotonic()
+    if now - _cpus_read[1] >= CPUS_RECHECK_S:
+        _cpus_read[:] = [_read_usable_cpus(), now]
+    return int(_cpus_read[0])
+
+
+def _read_usable_cpus() -> int:
+    try:
+        n = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        n = os.cpu_count() or 1
+    quota = None
+    try:
+        with open("/sys/fs/cgroup/cpu.max", encoding="ascii") as fh:
+            q, period = fh.read().split()[:2]
+            if q != "max":
+                quota = float(q) / float(period)
+    except (OSError, ValueError):
+        try:
+            with open("/sys/fs/cgroup/cpu/cpu.cfs_quota_us", encoding="ascii") as fh:
+                q_us = float(fh.read())
+            with open("/sys/fs/cgroup/cpu/cpu.cfs_period_us", encoding="ascii") as fh:
+                p_us = float(fh.read())
+            if q_us > 0 and p_us > 0:
+                quota = q_us / p_us
+        except (OSError, ValueError):
+            pass
+    if quota is not None:
+        n = min(n, max(1, int(quota + 0.5)))
+    return max(1, n)
 
 
 def pool(workers: int = 1) -> ThreadPoolExecutor:

@@ -753,11 +753,13 @@ def test_horizontal_paths_are_exact_across_stripes(threads):
 def test_usable_cpus_honours_the_affinity_mask(monkeypatch):
     n = core.usable_cpus()
     assert 1 <= n <= len(os.sched_getaffinity(0))
+    from stereo_classic.matching._kernels import workers
+
     reads = []
-    monkeypatch.setattr(core.os, "sched_getaffinity", lambda pid: reads.append(pid) or {0})
-    monkeypatch.setattr(core, "_cpus_read", [n, time.monotonic()])  # read just now: kept
+    monkeypatch.setattr(workers.os, "sched_getaffinity", lambda pid: reads.append(pid) or {0})
+    monkeypatch.setattr(workers, "_cpus_read", [n, time.monotonic()])  # read just now: kept
     assert core.usable_cpus() == n and reads == []
-    monkeypatch.setattr(core, "_cpus_read", [n, time.monotonic() - core.CPUS_RECHECK_S])  # read long enough ago
+    monkeypatch.setattr(workers, "_cpus_read", [n, time.monotonic() - workers.CPUS_RECHECK_S])  # long enough ago
     assert core.usable_cpus() == 1 and reads == [0]
     assert core.usable_cpus() == 1 and reads == [0]
 

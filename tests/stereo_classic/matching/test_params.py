@@ -122,7 +122,7 @@ _FLAG_FIELDS = {"min_disparity", "num_disparities", "cost", "block_size", "censu
                 "lr_check", "lr_mode", "speckle_size", "speckle_range", "paths", "adaptive_p2", "subpixel",
                 "fill_holes", "median_filter", "border_reach", "border_check", "outside_match", "weak_texture_gain", "p1_vertical",
                 "p1_vertical_texture",
-                "feature_model", "feature_input", "feature_similarity", "onnx_provider"}
+                "feature_model", "feature_input", "feature_similarity", "feature_census", "onnx_provider"}
 
 
 class TestCliMetadata:
