@@ -264,7 +264,7 @@ class FrameChecker:
         """The swapped / mismatched pair warning, or None. ``dmap`` (the full-size disparity) is quoted;
         ``halves``: :meth:`halves` of this frame, when another check of it shares them."""
         valid = dmap.valid_fraction
-        if left.shape == right.shape and np.array_equal(left, right):
+        if _same_image(left, right):
             return FrameWarning("pair_mismatch", "left and right are the same image (every disparity is 0, every "
                                                  "depth infinite); no distance is reported")
         h, w = left.shape[:2]
@@ -379,6 +379,14 @@ class FrameChecker:
             wide = self._reach(probe, w, h)
             needed = _needed(disp, wide, top)
         return FrameWarning("range_saturated", _range_message(share, top, None, needed, 0, dmap.params.min_disparity))
+
+
+def _same_image(left: np.ndarray, right: np.ndarray) -> bool:
+    """``np.array_equal(left, right)`` for two images of one shape, deciding most different pairs on every 8th row
+    and column first (a real pair differs there; the whole comparison took 0.5 ms a KITTI frame)."""
+    if left.shape != right.shape:
+        return False
+    return np.array_equal(left[::8, ::8], right[::8, ::8]) and np.array_equal(left, right)
 
 
 def _needed(disp: np.ndarray, wide: np.ndarray, top: float) -> float | None:

@@ -188,6 +188,18 @@ def test_the_same_image_twice_is_not_a_pair(near_scene):
     assert [w.code for w in r.warnings] == ["pair_mismatch"] and "same image" in r.warnings[0].message
 
 
+def test_same_image_is_the_whole_comparison():
+    from stereo_classic.checks import _same_image
+
+    img = np.random.default_rng(0).integers(0, 256, (40, 50, 3), dtype=np.uint8)
+    assert _same_image(img, img.copy())
+    for y, x in ((0, 0), (1, 1), (39, 49)):  # on the sampled grid, off it, at the far corner
+        other = img.copy()
+        other[y, x, 2] ^= 1
+        assert not _same_image(img, other)
+    assert not _same_image(img, img[:, :40])
+
+
 @pytest.mark.parametrize("order", ["as given", "swapped"])
 def test_the_look_is_the_same_for_any_thread_count(near_scene, order):
     """The frame's one half-size look (both signs of disparity, twice the reach) and so the pair check's answer do
