@@ -58,7 +58,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--repeat", type=_positive, default=5, help="timed repetitions per method and input (default 5)")
     p.add_argument("--threads", type=_threads, default=(1, 2), help="thread counts to time, comma-separated (default 1,2)")
     p.add_argument("--block-size", type=int, default=5, help="block size given to every method (default 5)")
-    p.add_argument("--sizes", nargs="*", metavar="WxHxD", help="extra speed sizes (default 1242x375x128 1920x1080x256)")
+    p.add_argument("--sizes", nargs="*", metavar="WxHxD", help="extra speed sizes (default 1242x375x128 640x480x64 1920x1080x256)")
     p.add_argument("--stereo-onnx", nargs="+", type=Path, default=[], metavar="MODEL", help="ONNX stereo network(s) to compare")
     p.add_argument("--onnx-option", action="append", default=[], metavar="KEY=VALUE",
                    help="ONNX stereo preprocessing overriding the model metadata: input_size=WxH, color=rgb|bgr|gray, "
