@@ -473,9 +473,13 @@ README_METHODS: tuple[str, ...] = ("sc-default", "ocv-sgbm", "ocv-hh", "ocv-3way
 SINGLE_THREADED: frozenset[str] = frozenset({"pandora"})
 
 
-def _speed_line(report: Mapping[str, Any]) -> str | None:
+#: The sizes of the README's speed lines: the KITTI pair and VGA (the frame-rate issue's two).
+README_SPEED_SIZES: tuple[tuple[int, int, int], ...] = ((1242, 375, 128), (640, 480, 64))
+
+
+def _speed_line(report: Mapping[str, Any], size: tuple[int, int, int] = (1242, 375, 128)) -> str | None:
     rows = [r for r in report.get("speed", []) if r.get("median_ms") is not None
-            and (r["width"], r["height"], r["num_disparities"]) == (1242, 375, 128)]
+            and (r["width"], r["height"], r["num_disparities"]) == tuple(size)]
     if not rows:
         return None
     t = 2 if any(r["threads"] == 2 for r in rows) else max(r["threads"] for r in rows)
@@ -485,8 +489,8 @@ def _speed_line(report: Mapping[str, Any]) -> str | None:
     me = sel["sc-default"]["median_ms"]
     parts = [f"`{b}` {sel[b]['median_ms']:.1f} ms{' single-threaded' if b in SINGLE_THREADED else ''} "
              f"({sel[b]['median_ms'] / me:.2f}x)" for b in README_METHODS[1:] if b in sel]
-    return (f"**Speed** at 1242x375x128, {t} thread(s), median: `sc-default` {me:.1f} ms; " + ", ".join(parts)
-            + " (x = their ms / ours).")
+    return (f"**Speed** at {size[0]}x{size[1]}x{size[2]}, {t} thread(s), median: `sc-default` {me:.1f} ms; "
+            + ", ".join(parts) + " (x = their ms / ours).")
 
 
 def _scaling_line(report: Mapping[str, Any]) -> str | None:
@@ -532,7 +536,7 @@ def readme_markdown(report: Mapping[str, Any]) -> str:
                          + f" | {fmt(_get(acc, 'full', 'valid', 'density'), 1)} |")
             first = False
     lines.append("")
-    for extra in (_speed_line(report), _scaling_line(report)):
+    for extra in (*(_speed_line(report, size) for size in README_SPEED_SIZES), _scaling_line(report)):
         if extra:
             lines += [extra, ""]
     pipe = [p for p in _pipeline_rows(report) if p.get("available") and not p.get("concurrent")]

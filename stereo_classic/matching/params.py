@@ -156,8 +156,8 @@ class SGMParams:
         texture is absent instead of census's noise, and has no intensity term (gradients do not change with
         an exposure offset). "census" alone, or "sad", the paper's sum of absolute differences on the
         x-Sobel + intensity/4 prefilter (OpenCV's cost). "mccnn": the learned cost of the shipped MC-CNN fast
-        network (``1 - <fL, fR>`` of its features); "features": any Siamese feature network given as
-        ``feature_model``. See docs/matching.md, "Learned costs".
+        network (``1 - <fL, fR>`` of its features, with the census cost in equal parts: ``feature_census``);
+        "features": any Siamese feature network given as ``feature_model``. See docs/matching.md, "Learned costs".
     feature_model : str or None
         Learned costs: an ONNX feature network (a path), or a shipped one by name ("mccnn-fast-dw", the default of
         "mccnn"; "mccnn-fast-int8", the paper's fast net with int8 layers). Required for ``cost="features"``.
