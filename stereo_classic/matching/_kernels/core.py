@@ -257,8 +257,8 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
     total += 7 * H * W  # the penalty factors (uint8) and the int16 gradient and int32 sums they are made from
     if kind == FEATURES:
         total += 2 * int(feature_channels) * H * W
-    if kind not in (SAD, FEATURES) or (kind == FEATURES and feature_census):  # census codes, four uint16 quarters
-        total += 2 * 8 * H * W + 2 * (H + 20) * (W + 20)  # per pixel, and the two padded images they are made from
+    if kind != SAD and (kind != FEATURES or feature_census):  # census codes (with a learned cost: its census term),
+        total += 2 * 8 * H * W + 2 * (H + 20) * (W + 20)  # four uint16 quarters per pixel, and the padded images
     if kind not in (CENSUS, FEATURES):  # prefiltered images (gradient; and intensity for SAD)
         total += 2 * 2 * H * W * (2 if kind == SAD else 1) + 2 * (H + 2) * (W + 2) * 2
     if paths == 3:
@@ -328,15 +328,20 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
 
 
 def _cost_settings(cost: str, dmin: int, n_disp: int, block_size: int, census_window: tuple[int, int], p2_room: int,
-                   outside_cost: int | None) -> CostSettings:
-    """The row cost's settings (``sgm_match`` and ``cost_volume`` alike): SAD scaling and invalid cost leave room for
-    ``p2_room``, the largest P2 at a pixel; ``outside_cost`` (None: never wins) scaled like the cost, at most cmax."""
+                   outside_cost: int | None, shape: tuple[int, int], features=None, feature_similarity: str = "dot",
+                   feature_census: float = 0.0) -> tuple[CostSettings, int]:
+    """(settings, C): the row cost's settings (``sgm_match`` and ``cost_volume`` alike) and a learned cost's channel
+    count (0 otherwise). SAD scaling and invalid cost leave room for ``p2_room``, the largest P2 at a pixel;
+    ``outside_cost`` (None: never wins) scaled like the cost, at most cmax; ``cost="features"``: the checked
+    ``features`` of an image of ``shape`` (H, W), their similarity and the census term's share
+    (``features.with_features``; its multiplier ``feature_census_mul`` > 0 says the codes are needed)."""
     kind = _KIND[cost]
     shift, cmax = cost_scale(cost, block_size, census_window, p2_room)
-    return CostSettings(kind=kind, min_disparity=dmin, half_block=block_size // 2 if kind != CENSUS else 0,
-                        shift=shift, cmax=cmax, invalid_cost=cmax + 2 * (p2_room >> shift) + 1,
-                        num_disparities=n_disp, grad_mul=grad_mul(block_size) if cost == "census+grad" else 0,
-                        outside_cost=-1 if outside_cost is None else min(int(outside_cost) >> shift, cmax))
+    settings = CostSettings(kind=kind, min_disparity=dmin, half_block=block_size // 2 if kind != CENSUS else 0,
+                            shift=shift, cmax=cmax, invalid_cost=cmax + 2 * (p2_room >> shift) + 1,
+                            num_disparities=n_disp, grad_mul=grad_mul(block_size) if cost == "census+grad" else 0,
+                            outside_cost=-1 if outside_cost is None else min(int(outside_cost) >> shift, cmax))
+    return with_features(settings, features, feature_similarity, *shape, feature_census, census_bits(census_window))
 
 
 def _run(left, right, *, cost, min_disparity, num_disparities, block_size, census_window, p1, p2,
@@ -358,12 +363,11 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     # the SAD cost's scaling and the invalid cost leave room for the largest P2 at a pixel (times the weak-texture
     # factor): the costs are those of cost_volume(p2=p2_top)
     p2_top = largest_p2(p2, weak_texture_gain)
-    cost_settings = _cost_settings(cost, dmin, n_disp, block_size, census_window, p2_top, outside_cost)
+    cost_settings, channels = _cost_settings(cost, dmin, n_disp, block_size, census_window, p2_top, outside_cost,
+                                             (H, W), features, feature_similarity, feature_census)
     shift = cost_settings.shift
     p1s, p2s = int(p1) >> shift, int(p2) >> shift
-    census_term = kind == FEATURES and feature_census > 0
-    cost_settings, channels = with_features(cost_settings, features, feature_similarity, H, W, feature_census,
-                                            census_bits(census_window))
+    census_term = cost_settings.feature_census_mul > 0
     timings = {}
 
     t0 = time.perf_counter()
@@ -578,10 +582,9 @@ def cost_volume(left: np.ndarray, right: np.ndarray, *, cost: str = "census", mi
     H, W = left.shape
     n_disp = int(num_disparities)
     D = padded_disparities(n_disp)  # as the one-sweep kernel holds them
-    settings = _cost_settings(cost, int(min_disparity), n_disp, block_size, census_window, int(p2), outside_cost)
-    census_term = kind == FEATURES and feature_census > 0
-    settings, channels = with_features(settings, features, feature_similarity, H, W, feature_census,
-                                       census_bits(census_window))
+    settings, channels = _cost_settings(cost, int(min_disparity), n_disp, block_size, census_window, int(p2),
+                                        outside_cost, (H, W), features, feature_similarity, feature_census)
+    census_term = settings.feature_census_mul > 0
     images = _prepare_cost(left, right, cost, census_window, features=features, feature_census=census_term)
     out = np.empty((H, W, D), np.int16)
     bufs = _row_cost_buffers(W, D, kind, settings.half_block, channels, census_term)
