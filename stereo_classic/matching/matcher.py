@@ -461,7 +461,7 @@ def compute_disparity(left: Any, right: Any, params: SGMParams | None = None, **
     return _match(left, right, _resolve_params(params, overrides))
 
 
-_LOADED: set[tuple[Any, ...]] = set()  # what load_kernels has loaded in this process
+_LOADED: set[SGMParams] = set()  # the settings load_kernels has matched with in this process
 
 
 def load_kernels(params: SGMParams | None = None, **overrides: Any) -> bool:
@@ -492,8 +492,7 @@ def load_kernels(params: SGMParams | None = None, **overrides: Any) -> bool:
     False
     """
     params = _resolve_params(params, overrides)
-    key = (params.cost, params.feature_model, params.effective_feature_census > 0, params.paths,
-           params.effective_threads, params.border_check)
+    key = params.replace(min_disparity=0, num_disparities=1)  # every setting but the range, which picks no kernel
     if key in _LOADED:
         return False
     width = max(abs(params.min_disparity), abs(params.max_disparity)) + 64
