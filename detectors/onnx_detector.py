@@ -21,6 +21,7 @@ from detectors.nms import nms
 from detectors.onnx_wire import Field as _Field
 from detectors.onnx_wire import pb_encode as _pb_encode
 from detectors.onnx_wire import pb_fields as _pb_fields
+from detectors.onnx_wire import pb_strings as _pb_strings
 from detectors.results import Detections
 
 __all__ = ["OnnxDetector", "session_options"]
@@ -104,10 +105,6 @@ def _free_image_dims(source: str | bytes, input_name: str, axes: tuple[int, int]
         return [(num, wire, _pb_encode((1, 2, b"") for dnum, _, _ in _pb_fields(raw) if dnum == 1))
                 if num == 2 and wire == 2 else (num, wire, raw) for num, wire, raw in tensor]
 
-    def name_of(value_info: bytes) -> str:
-        return next((raw.decode("utf-8", "replace") for num, wire, raw in _pb_fields(value_info)
-                     if num == 1 and wire == 2), "")
-
     model = _pb_fields(data)
     for i, (num, wire, raw) in enumerate(model):
         if num != 7 or wire != 2:  # ModelProto.graph
@@ -116,7 +113,7 @@ def _free_image_dims(source: str | bytes, input_name: str, axes: tuple[int, int]
         for gnum, gwire, graw in _pb_fields(raw):
             if gnum == 13:  # value_info: recorded shapes of inner tensors
                 continue
-            if gnum == 11 and gwire == 2 and name_of(graw) == input_name:
+            if gnum == 11 and gwire == 2 and _pb_strings(_pb_fields(graw), 1)[:1] == [input_name]:  # its name
                 graw = tensor_type(graw, free)
             elif gnum == 12 and gwire == 2:  # outputs: their sizes follow the input's (the rank is kept)
                 graw = tensor_type(graw, unknown)

@@ -149,12 +149,15 @@ def without_final_division(data: bytes) -> tuple[bytes, str] | None:
         ops = pb_strings(nodes[producer[tensor]][0], 4) if tensor in producer else []
         return ops[0] if ops else None
 
+    def inputs_of(tensor: str) -> list[str]:  # of the node that makes ``tensor`` (one is known to)
+        return pb_strings(nodes[producer[tensor]][0], 1)
+
     name = outputs[0][0]
-    while op_of(name) in _RANK_OPS and pb_strings(nodes[producer[name]][0], 1):
-        name = pb_strings(nodes[producer[name]][0], 1)[0]
-    if op_of(name) != "Div" or len(pb_strings(nodes[producer[name]][0], 1)) != 2:
+    while op_of(name) in _RANK_OPS and inputs_of(name):
+        name = inputs_of(name)[0]
+    if op_of(name) != "Div" or len(inputs_of(name)) != 2:
         return None
-    numerator = pb_strings(nodes[producer[name]][0], 1)[0]
+    numerator = inputs_of(name)[0]
     keep, todo = set(), [numerator]
     while todo:  # the nodes the numerator needs
         k = producer.get(todo.pop())
