@@ -46,6 +46,7 @@ from stereo_classic.matching._kernels.cost import (
     census_bits,
     census_quarters_rows,
     cost_volume_kernel,
+    disparity_tag,
     largest_p2,
     sobel_rows,
 )
@@ -157,7 +158,7 @@ def _row_cost_buffers(W: int, D: int, kind: int, h: int, channels: int = 0, cens
         rrev=np.zeros(4 * (W + D - 1) if kind not in (SAD, FEATURES) or census else 1, np.uint16),
         srev=np.zeros(L if grad else 1, np.int16), irev=np.zeros(L if kind == SAD else 1, np.int16),
         floor=np.zeros(D, np.int16), frev=np.zeros(max(1, channels) * (W + D - 1) if feat else 1, np.float32),
-        facc=np.zeros(D if feat else 1, np.float32))
+        facc=np.zeros(D if feat else 1, np.float32), tag=disparity_tag(D))
 
 
 def _set_floor(bufs: RowCostBuffers, settings: CostSettings) -> None:
@@ -220,7 +221,7 @@ class Workspace:
         arrays.append(self.S)
         for pair in self.bufs:  # (RowCostBuffers, RowPassBuffers or ThreadBuffers) per worker
             for b in pair:
-                arrays.extend(b)
+                arrays.extend(a for a in b if isinstance(a, np.ndarray))  # not the disparity tag
         return arrays
 
     @property

@@ -67,6 +67,8 @@ __all__ = [
     "max_penalty_scale",
     "pixel_penalties",
     "scaled_penalty",
+    "disparity_tag",
+    "tag_disparities",
 ]
 
 SOBEL_CAP = 31
@@ -263,6 +265,37 @@ class NoAliasCompiler(CompilerBase):
 _U = np.uint64  # unsigned indices: numba adds no negative-index wraparound, LLVM emits plain vector loads
 
 
+#: ``disparity_tag``'s unit: the padded disparities per pixel are whole multiples of it (see core.DISPARITY_BLOCK).
+_TAG_BLOCK = 32
+
+
+def disparity_tag(D: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """``D``, the disparities per pixel of a worker's buffers, written as a type for the kernels:
+    ``((0,) * (D // 32), (0,) * (D % 32))``, whose numba type holds both lengths.
+
+    numba compiles a kernel once per argument type, so a kernel that reads D from the tag
+    (:func:`tag_disparities`) is compiled once per D, and LLVM knows the trip count of every loop over a pixel's
+    disparities: it drops their trip-count checks, vector remainders and reduction set-up, the work per pixel that
+    does not scale with D (measured on the OAK-D living room 640x480 at 64 disparities: the one-sweep kernel
+    about 15 % faster; the numbers are the same).
+
+    >>> disparity_tag(64)
+    ((0, 0), ())
+    >>> len(disparity_tag(48)[1])
+    16
+    """
+    D = int(D)
+    if D < 1:
+        raise ValueError(f"`D` must be a number of disparities >= 1, got {D!r}")
+    return (0,) * (D // _TAG_BLOCK), (0,) * (D % _TAG_BLOCK)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def tag_disparities(tag):  # pragma: no cover - numba
+    """The D of ``disparity_tag(D)``, a constant where the kernel is compiled."""
+    return len(tag[0]) * _TAG_BLOCK + len(tag[1])
+
+
 @njit(cache=True, nogil=True)
 def _clamp(i, n):  # pragma: no cover - numba
     return 0 if i < 0 else (n - 1 if i >= n else i)
@@ -290,6 +323,8 @@ class RowCostBuffers(NamedTuple):
         ``FEATURES``: the right row's features, reversed, one run per channel ((1,) otherwise).
     facc : (D,) float32
         ``FEATURES``: the channel sums of the current pixel ((1,) otherwise).
+    tag : tuple
+        ``disparity_tag(D)``: ``row_cost`` reads D from it (compiled once per D).
     """
 
     colsum: np.ndarray
@@ -300,6 +335,7 @@ class RowCostBuffers(NamedTuple):
     floor: np.ndarray
     frev: np.ndarray = np.zeros(1, np.float32)
     facc: np.ndarray = np.zeros(1, np.float32)
+    tag: tuple = ((), ())
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -364,10 +400,12 @@ def sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D, i
 
 
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, D,
+def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, tag,
                        intensity):  # pragma: no cover
     """Move the column window from row y - step to row y: add row y + step*h and drop row y - step*(h+1), in
-    one sweep over the column sums (``srev`` / ``irev`` hold two reversed rows: the one in, then the one out)."""
+    one sweep over the column sums (``srev`` / ``irev`` hold two reversed rows: the one in, then the one out;
+    ``tag``: ``disparity_tag(D)``)."""
+    D = tag_disparities(tag)
     H = lsob.shape[0]
     W = lsob.shape[1]
     yin = _clamp(y + step * h, H)
@@ -445,7 +483,7 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     dmin = cost.min_disparity
     h = cost.half_block
     W = images.left.shape[1]
-    D = crow.shape[0] // W
+    D = tag_disparities(bufs.tag)  # crow.shape[0] // W, as a constant
     cinv = np.int16(cost.invalid_cost)
     cout = np.int16(cost.outside_cost) if cost.outside_cost >= 0 else cinv
     grad = kind != CENSUS  # SAD, or the gradient term of census+grad (no intensity term)
@@ -454,7 +492,7 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
         if first:
             sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D, intensity)
         else:
-            sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, D, intensity)
+            sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, bufs.tag, intensity)
     shift = np.int16(cost.shift)
     cmax = np.int16(cost.cmax)
     gmul = np.int16(cost.grad_mul)

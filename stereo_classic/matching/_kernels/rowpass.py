@@ -29,8 +29,10 @@ from numba import njit
 from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr, _p2_at, cross_penalty
 from stereo_classic.matching._kernels.cost import (
     NoAliasCompiler,
+    disparity_tag,
     pixel_penalties,
     row_cost,
+    tag_disparities,
 )
 from stereo_classic.matching._kernels.intrinsics import add16, min16
 from stereo_classic.matching._kernels.select import right_view_row, select_row
@@ -108,6 +110,8 @@ class RowPassBuffers(NamedTuple):
         Pixels rejected by uniqueness, by the LR check, and won by a match outside the right image.
     claim_cost, claim_k : (W,) int16
         OpenCV-style LR check: cost and disparity index of each right pixel's claim.
+    tag : tuple
+        ``cost.disparity_tag(D)``: the kernel reads D from it, so it is compiled once per D.
     """
 
     costs: np.ndarray
@@ -126,6 +130,7 @@ class RowPassBuffers(NamedTuple):
     counts: np.ndarray
     claim_cost: np.ndarray
     claim_k: np.ndarray
+    tag: tuple
 
 
 def row_pass_buffers(H: int, W: int, D: int, warm_rows: int = 0) -> RowPassBuffers:
@@ -143,7 +148,7 @@ def row_pass_buffers(H: int, W: int, D: int, warm_rows: int = 0) -> RowPassBuffe
         row_min=np.empty(W, np.int16), k_index=np.arange(D, dtype=np.int16),
         right_sums=np.empty(W + D - 1, np.int16), right_k=np.empty(W + D - 1, np.int16),
         best=np.empty(W, np.int64), counts=np.zeros(3, np.int64),
-        claim_cost=np.empty(W, np.int16), claim_k=np.empty(W, np.int16))
+        claim_cost=np.empty(W, np.int16), claim_k=np.empty(W, np.int16), tag=disparity_tag(D))
 
 
 def row_pass_bytes(H: int, W: int, D: int, warm_rows: int = 0) -> int:
@@ -199,7 +204,7 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     rd = bufs.right_k
     right_view = settings.right_view
     Sf = out.sums
-    D = bufs.k_index.shape[0]
+    D = tag_disparities(bufs.tag)  # len(bufs.k_index), as a constant: compiled once per D
     E = D + 2
     big = np.int16(_INT16_MAX)
     zero = np.int16(0)

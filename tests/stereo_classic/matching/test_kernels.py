@@ -810,3 +810,23 @@ def test_disparity_padding_changes_nothing(paths, cost, lr_mode, monkeypatch):
         np.testing.assert_array_equal(dr, dr1)
         assert (t["n_failed_lr"], t["n_failed_uniqueness"]) == (t1["n_failed_lr"], t1["n_failed_uniqueness"])
         assert np.isfinite(d).any() and np.nanmax(d) <= dmin + n - 1 and np.nanmin(d) >= dmin
+
+
+def test_disparity_tag_carries_the_buffers_disparities():
+    """The kernels read D from a tag whose numba type holds it (compiled once per D): the tag gives back every D,
+    whole blocks or not, and each worker's buffers carry the tag of their own D."""
+    from numba import njit
+
+    from stereo_classic.matching._kernels.cost import disparity_tag, tag_disparities
+    from stereo_classic.matching._kernels.rowpass import row_pass_buffers
+
+    read = njit(lambda tag: tag_disparities(tag))
+    for D in (1, 8, 31, 32, 64, 70, 96, 128, 256, 1000):
+        tag = disparity_tag(D)
+        assert read(tag) == D and len(tag[0]) == D // 32 and len(tag[1]) == D % 32
+    for D in (64, 96):
+        assert read(row_pass_buffers(10, 40, D).tag) == D
+        assert read(core._row_cost_buffers(40, D, 2, 2).tag) == D
+    for bad in (0, -3):
+        with pytest.raises(ValueError, match="`D` must be"):
+            disparity_tag(bad)
