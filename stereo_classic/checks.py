@@ -60,7 +60,7 @@ import numpy as np
 from stereo_classic.fusion import FusionParams, LocalizedObjects, localize
 from stereo_classic.fusion.boxes import shrunk_pixel_box
 from stereo_classic.fusion.range_hint import PILE_SHARE, range_saturation
-from stereo_classic.matching import DisparityMap, SGMParams, StereoMatcher
+from stereo_classic.matching import DisparityMap, SGMParams, StereoMatcher, load_kernels
 
 __all__ = [
     "BOX_SATURATION",
@@ -172,6 +172,26 @@ class FrameChecker:
         low = min(start, -mirror)
         return low, start + p.num_disparities - low
 
+    def look_params(self, cleared: bool) -> SGMParams:
+        """The half-size look's matcher settings: over :meth:`look_range` or, after a cleared pair (``cleared``),
+        from the range's start at half size over ``num_disparities`` (see :meth:`_look`)."""
+        low, num = self.look_range()
+        if cleared:
+            low, num = math.floor(self.params.min_disparity / 2), self.params.num_disparities
+        return self.params.replace(
+            min_disparity=low, num_disparities=num, cost="census", p1=None, p2=None, weak_texture_gain=1.0,
+            lr_check=1.0, lr_mode="full", fill_holes=False, median_filter=False)
+
+    def load_kernels(self) -> None:
+        """Load the looks' compiled kernels now (:func:`stereo_classic.matching.load_kernels`): their ranges differ
+        from the frame's, and the kernels are compiled per range, so a stream's first look would otherwise wait for
+        them."""
+        for cleared in (True, False):
+            try:
+                load_kernels(self.look_params(cleared))
+            except ValueError:  # a range the look cannot take: each frame's look says so, as before
+                pass
+
     def _look(self, halves: _Halves, window: tuple[int, int, int, int] | None = None) -> DisparityMap | None:
         """The frame's half-size look (made once, kept on ``halves``), or None when the half-size images are too
         small for its range. Fixed settings, whatever the caller's (census cost with its default penalties, the
@@ -187,12 +207,7 @@ class FrameChecker:
         try:
             matcher = self._range_matcher if halves.cleared else self._matcher
             if matcher is None:
-                low, num = self.look_range()
-                if halves.cleared:
-                    low, num = math.floor(self.params.min_disparity / 2), self.params.num_disparities
-                matcher = StereoMatcher(self.params.replace(
-                    min_disparity=low, num_disparities=num, cost="census", p1=None, p2=None, weak_texture_gain=1.0,
-                    lr_check=1.0, lr_mode="full", fill_holes=False, median_filter=False))
+                matcher = StereoMatcher(self.look_params(halves.cleared))
                 if halves.cleared:
                     self._range_matcher = matcher
                 else:

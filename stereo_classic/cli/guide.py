@@ -30,6 +30,7 @@ from tqdm import tqdm
 
 import calib
 from stereo_classic import io, sources
+from stereo_classic.checks import FrameChecker
 from stereo_classic.cli import run as run_command
 from stereo_classic.cli.errors import UsageError
 from stereo_classic.cli.inputs import Source, add_input_options, open_source
@@ -172,7 +173,9 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
     current: list[Any] = []          # [original rig, rig of the images matched, Localizer]
     timings: list[dict[str, float]] = []
     frames = events = 0
-    load_kernels(run_command._matcher_params(cfg, None))  # before the first frame, not while it waits
+    matcher_params = run_command._matcher_params(cfg, None)
+    load_kernels(matcher_params)  # before the first frame, not while it waits
+    FrameChecker(matcher_params).load_kernels()  # the frame checks' looks, whose ranges are their own
     start = time.monotonic()
     first_done: float | None = None  # when the first frame was guided
     bar = tqdm(total=len(source) or None, unit="frame", file=sys.stderr, leave=False,

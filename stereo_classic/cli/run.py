@@ -26,6 +26,7 @@ from tqdm import tqdm
 import calib
 from detectors import ModelNotFoundError, OnnxDetector, resolve_model
 from stereo_classic import sources
+from stereo_classic.checks import FrameChecker
 from stereo_classic.cli.config import (
     FUSION_OPTIONS,
     INPUT_OPTIONS,
@@ -296,7 +297,9 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
             writer = _mcap_writer(writer, outdir)
             stack.callback(writer.close)
         if executor is None:  # the matcher's compiled code loaded before the first frame, not while it waits
-            load_kernels(_matcher_params(cfg, None))
+            matcher_params = _matcher_params(cfg, None)
+            load_kernels(matcher_params)
+            FrameChecker(matcher_params).load_kernels()  # the frame checks' looks, whose ranges are their own
         started = time.perf_counter()
         summary = run_source(
             source, writer, params_for=partial(_matcher_params, cfg), rig=base_rig,

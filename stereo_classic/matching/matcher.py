@@ -470,9 +470,9 @@ def load_kernels(params: SGMParams | None = None, **overrides: Any) -> bool:
     The kernels are numba functions kept compiled in numba's on-disk cache. The first call of a process that uses
     them loads that code and numba's own registries: about 0.3 s on a 2-core machine (more after an install, when
     they are compiled once). ``run``, ``guide`` and the ROS 2 node call this before their first frame, so that a live
-    camera's first frame is not held up by the loading. It matches a small random pair (64 rows, the range plus 64
-    columns) with ``params``: the same cost, paths, checks and threads, so the same kernels (and a learned cost's
-    network) load.
+    camera's first frame is not held up by the loading. It matches a small random pair (64 rows; 64 columns more
+    than the range's length or its farther end) with ``params``: the same cost, paths, checks, threads and disparities per pixel (the kernels are
+    compiled once per padded range), so the same kernels (and a learned cost's network) load.
 
     Parameters
     ----------
@@ -492,10 +492,13 @@ def load_kernels(params: SGMParams | None = None, **overrides: Any) -> bool:
     False
     """
     params = _resolve_params(params, overrides)
-    key = params.replace(min_disparity=0, num_disparities=1)  # every setting but the range, which picks no kernel
+    # every setting but the range, which picks the kernels only by the disparities per pixel of their buffers
+    # (they are compiled once per padded range: cost.disparity_tag)
+    key = params.replace(min_disparity=0, num_disparities=kernels.padded_disparities(params.num_disparities,
+                                                                                   params.paths))
     if key in _LOADED:
         return False
-    width = max(abs(params.min_disparity), abs(params.max_disparity)) + 64
+    width = max(abs(params.min_disparity), abs(params.max_disparity), params.num_disparities) + 64
     pattern = np.random.default_rng(0).integers(0, 256, (64, width + 4), dtype=np.uint8)
     left, right = np.ascontiguousarray(pattern[:, 4:]), np.ascontiguousarray(pattern[:, :width])  # 4 px apart
     _match(left, right, params)

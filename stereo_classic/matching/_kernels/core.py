@@ -46,13 +46,13 @@ from stereo_classic.matching._kernels.cost import (
     census_bits,
     census_quarters_rows,
     cost_volume_kernel,
-    disparity_tag,
     largest_p2,
     sobel_rows,
 )
 from stereo_classic.matching._kernels.features import FEATURES, check_features, with_features
 from stereo_classic.matching._kernels.rowpass import (RowPassBuffers, StripePlan, row_pass_buffers, row_pass_bytes,
                                                      three_path_stripe)
+from stereo_classic.matching._kernels.tags import disparity_tag
 from stereo_classic.matching._kernels.texture import texture_table, weak_texture_rows
 from stereo_classic.matching._kernels.workers import run_chained, run_stripes, run_tasks, usable_cpus
 

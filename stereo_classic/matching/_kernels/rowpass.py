@@ -29,13 +29,12 @@ from numba import njit
 from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr, _p2_at, cross_penalty
 from stereo_classic.matching._kernels.cost import (
     NoAliasCompiler,
-    disparity_tag,
     pixel_penalties,
     row_cost,
-    tag_disparities,
 )
 from stereo_classic.matching._kernels.intrinsics import add16, min16
 from stereo_classic.matching._kernels.select import right_view_row, select_row
+from stereo_classic.matching._kernels.tags import disparity_tag, tag_disparities
 
 __all__ = ["RowPassBuffers", "StripePlan", "three_path_stripe", "row_pass_buffers", "row_pass_bytes"]
 

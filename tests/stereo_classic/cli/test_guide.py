@@ -197,7 +197,12 @@ def test_kernels_loaded_before_the_first_frame(walk, tmp_path, monkeypatch):
         assert loaded, "a frame began before the kernels were loaded"
         return Localizer(*args, **kwargs)
 
+    from stereo_classic import checks
+
     monkeypatch.setattr(guide_cli, "load_kernels", lambda params: loaded.append(params))
+    monkeypatch.setattr(checks, "load_kernels", lambda params: loaded.append(params))  # the checks' two looks
     monkeypatch.setattr(guide_cli, "Localizer", localizer)
     assert main(_args(walk, tmp_path / "g")) == 0
-    assert [p.num_disparities for p in loaded] == [64]
+    checker = checks.FrameChecker(loaded[0])
+    assert loaded == [loaded[0], checker.look_params(True), checker.look_params(False)]
+    assert loaded[0].num_disparities == 64

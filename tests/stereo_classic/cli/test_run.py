@@ -621,10 +621,18 @@ def test_kernels_loaded_before_the_first_frame_with_the_runs_parameters(tmp_path
 
     order = []
     real_source = run_cli.run_source
+    from stereo_classic import checks
+
     monkeypatch.setattr(run_cli, "load_kernels", lambda params: order.append(("load", params)))
+    # the frame checks' two looks (after a cleared pair and not), whose ranges are their own (compiled per range)
+    monkeypatch.setattr(checks, "load_kernels", lambda params: order.append(("look", params)))
     monkeypatch.setattr(run_cli, "run_source", lambda *a, **k: (order.append(("frames", None)),
                                                                 real_source(*a, **k))[1])
     assert main(["run", "-o", str(tmp_path / "o"), "--scale", "0.25", "--save", "json", "--model", "none",
                  "--num-disparities", "48", "--paths", "4"]) == 0
-    assert [step for step, _ in order] == ["load", "frames"]
+    assert [step for step, _ in order] == ["load", "look", "look", "frames"]
     assert order[0][1].num_disparities == 48 and order[0][1].paths == 4
+    checker = checks.FrameChecker(order[0][1])
+    assert [p for _, p in order[1:3]] == [checker.look_params(True), checker.look_params(False)]
+    assert {(p.min_disparity, p.num_disparities, p.cost, p.paths) for _, p in order[1:3]} == {
+        (0, 48, "census", 4), (*checker.look_range(), "census", 4)}

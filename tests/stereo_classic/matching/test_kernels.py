@@ -817,7 +817,7 @@ def test_disparity_tag_carries_the_buffers_disparities():
     whole blocks or not, and each worker's buffers carry the tag of their own D."""
     from numba import njit
 
-    from stereo_classic.matching._kernels.cost import disparity_tag, tag_disparities
+    from stereo_classic.matching._kernels.tags import disparity_tag, tag_disparities
     from stereo_classic.matching._kernels.rowpass import row_pass_buffers
 
     read = njit(lambda tag: tag_disparities(tag))

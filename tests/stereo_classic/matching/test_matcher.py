@@ -519,13 +519,18 @@ class TestLoadKernels:
             calls.append((left.shape, left.flags.c_contiguous, right.flags.c_contiguous, params)),
             real(left, right, params, *a, **k))[1])
         assert matcher_mod.load_kernels(num_disparities=32, paths=4) is True
-        assert matcher_mod.load_kernels(SGMParams(num_disparities=96, paths=4)) is False  # the same kernels
+        # the same kernels: the range padded to the same disparities per pixel (32)
+        assert matcher_mod.load_kernels(SGMParams(num_disparities=20, min_disparity=-7, paths=4)) is False
+        assert matcher_mod.load_kernels(SGMParams(num_disparities=96, paths=4)) is True  # compiled per padded range
         assert matcher_mod.load_kernels(num_disparities=32, paths=8) is True
         assert matcher_mod.load_kernels(num_disparities=32, cost="sad", min_disparity=-40) is True
+        # a range across zero wider than either end (the frame checks' look): the pair is wide enough for it
+        assert matcher_mod.load_kernels(num_disparities=192, min_disparity=-64) is True
         # the pair the matcher's callers hand the kernels: C-contiguous uint8, wide enough for the range
         assert [(c[0], c[1], c[2], c[3].paths, c[3].cost) for c in calls] == [
-            ((64, 95), True, True, 4, "census+grad"), ((64, 95), True, True, 8, "census+grad"),
-            ((64, 104), True, True, 3, "sad")]
+            ((64, 96), True, True, 4, "census+grad"), ((64, 160), True, True, 4, "census+grad"),
+            ((64, 96), True, True, 8, "census+grad"), ((64, 104), True, True, 3, "sad"),
+            ((64, 256), True, True, 3, "census+grad")]
 
     def test_bad_parameters_named(self, monkeypatch):
         monkeypatch.setattr(matcher_mod, "_LOADED", set())
