@@ -62,6 +62,7 @@ from stereo_classic.matching._kernels.intrinsics import (
     min16,
     sub16,
 )
+from stereo_classic.matching._kernels.tags import tag_disparities
 from stereo_classic.matching._kernels.select import right_view_row, select_row
 
 __all__ = ["check_penalties", "cost_scale", "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
@@ -383,7 +384,7 @@ def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cove
     Sf = out.sums
     H = limg.shape[0]
     W = limg.shape[1]
-    D = kidx.shape[0]
+    D = tag_disparities(cbufs.tag)  # len(kidx), as a constant: compiled once per D (tags.py)
     crow = bufs.crow
     E = D + 2
     m4 = (path_mask & 15) if step > 0 else ((path_mask >> 4) & 15)
@@ -544,6 +545,6 @@ def sgm_pass(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cove
         if select:
             sums_row = Sf[_U(y * W * D):_U((y + 1) * W * D)] if keep_sums else Srow
             if right_view:
-                right_view_row(sums_row, rv, rd, W, D)
+                right_view_row(sums_row, rv, rd, W, cbufs.tag)
             select_row(y, settings, dmin, cost.num_disparities, sums_row, nsrow, kidx, rv, rd, best, counts, ccost, ck,
-                       out)
+                       out, cbufs.tag)

@@ -296,11 +296,11 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
         if not prev:
             continue
         if right_view:
-            right_view_row(srow_p, rv, rd, W, D)
+            right_view_row(srow_p, rv, rd, W, bufs.tag)
         if plan.keep_sums:
             base = yp * W * D
             for j in range(W * D):
                 Sf[_U(base + j)] = srow_p[_U(j)]
         if plan.select:
             select_row(yp, settings, dmin, cost.num_disparities, srow_p, nsrow, kidx, rv, rd, bufs.best, bufs.counts,
-                       bufs.claim_cost, bufs.claim_k, out)
+                       bufs.claim_cost, bufs.claim_k, out, bufs.tag)

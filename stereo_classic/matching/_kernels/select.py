@@ -13,6 +13,7 @@ from numba import njit
 
 from stereo_classic.matching._kernels.cost import NoAliasCompiler, valid_range
 from stereo_classic.matching._kernels.intrinsics import MASK_LANES, cttz64, eq_mask32, min16, pick16
+from stereo_classic.matching._kernels.tags import tag_disparities
 
 __all__ = ["select_row", "right_view_row"]
 
@@ -44,7 +45,7 @@ def first_equal(row, start, n, value):  # pragma: no cover - numba
 
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, right_k, best, counts, claim_cost,
-               claim_k, out):  # pragma: no cover - numba
+               claim_k, out, tag):  # pragma: no cover - numba
     """Resolve row ``y`` from its complete sums ``sums[x * D + k]`` (int16; D = ``len(k_index)``: the ``ndisp``
     disparities of the range, then padding, which sums higher than any of them), their minima ``row_min[x]`` and the
     right view's winners ``right_k`` (``right_sums`` / ``right_k`` per right pixel q = W - 1 - dmin - x_right:
@@ -54,7 +55,7 @@ def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, rig
     neutral ``CostSettings.outside_cost`` allows, is unknown and counted in ``counts[2]``),
     uniqueness, parabola subpixel, then the left-right check of the row ("full":
     against the right view's winner; "opencv": against the claims, ties to the largest x), and the right-view
-    disparity.
+    disparity. ``tag``: ``disparity_tag(D)`` (D read from it as a constant).
     """
     uniq = settings.uniqueness
     lr_thr = settings.lr_threshold
@@ -71,7 +72,7 @@ def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, rig
     disp = out.disparity
     dispR = out.disparity_right
     W = disp.shape[1]
-    D = kidx.shape[0]
+    D = tag_disparities(tag)  # len(k_index), as a constant: compiled once per D (tags.py)
     big = np.int16(_INT16_MAX)
     minus1 = np.int16(-1)
     nan = np.float32(np.nan)
@@ -149,9 +150,10 @@ def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, rig
 
 
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def right_view_row(srow, rv, rd, W, D):  # pragma: no cover - numba
+def right_view_row(srow, rv, rd, W, tag):  # pragma: no cover - numba
     """The right view's winner of one row: per right pixel q = W - 1 - dmin - x_right, the lowest complete sum
-    landing there (``rv``) and its disparity index (``rd``; ties: the smallest index, -1: none).
+    landing there (``rv``) and its disparity index (``rd``; ties: the smallest index, -1: none); ``tag``:
+    ``disparity_tag(D)``.
 
     Pixel x adds its sums to q = W - 1 - x + k. Consecutive pixels overlap by D - 1 entries at an offset of one
     element, so a plain sweep over x reads every vector across two stores still in flight (store forwarding
@@ -159,6 +161,7 @@ def right_view_row(srow, rv, rd, W, D):  # pragma: no cover - numba
     ...: within a round consecutive pixels are one whole 16-lane vector apart. The tie rule does not depend on
     the order (lower sum, then lower index).
     """
+    D = tag_disparities(tag)  # disparities per pixel, a constant: compiled once per D (tags.py)
     big = np.int16(_INT16_MAX)
     minus1 = np.int16(-1)
     for q in range(rv.shape[0]):
