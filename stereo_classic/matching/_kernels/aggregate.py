@@ -62,8 +62,8 @@ from stereo_classic.matching._kernels.intrinsics import (
     min16,
     sub16,
 )
-from stereo_classic.matching._kernels.tags import tag_disparities
 from stereo_classic.matching._kernels.select import right_view_row, select_row
+from stereo_classic.matching._kernels.tags import tag_disparities
 
 __all__ = ["check_penalties", "cost_scale", "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
            "ALL_PATHS", "FOUR_PATHS", "THREE_PATHS", "PATH_NAMES", "PATH_STEPS", "grad_mul"]

@@ -295,12 +295,12 @@ class RowCostBuffers(NamedTuple):
     floor : (D,) int16
         0 for the disparities of the range, the invalid cost for the padding past it (``CostSettings``): the cost
         of index k is at least ``floor[k]`` (one vector max, instead of a remainder loop per pixel).
+    tag : tuple
+        ``tags.disparity_tag(D)``: ``row_cost`` reads D from it (compiled once per D).
     frev : (C * (W + D - 1),) float32
         ``FEATURES``: the right row's features, reversed, one run per channel ((1,) otherwise).
     facc : (D,) float32
         ``FEATURES``: the channel sums of the current pixel ((1,) otherwise).
-    tag : tuple
-        ``disparity_tag(D)``: ``row_cost`` reads D from it (compiled once per D).
     """
 
     colsum: np.ndarray
@@ -309,9 +309,9 @@ class RowCostBuffers(NamedTuple):
     srev: np.ndarray
     irev: np.ndarray
     floor: np.ndarray
+    tag: tuple
     frev: np.ndarray = np.zeros(1, np.float32)
     facc: np.ndarray = np.zeros(1, np.float32)
-    tag: tuple = ((), ())
 
 
 @njit(cache=True, nogil=True, inline="always")

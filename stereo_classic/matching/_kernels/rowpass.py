@@ -110,7 +110,7 @@ class RowPassBuffers(NamedTuple):
     claim_cost, claim_k : (W,) int16
         OpenCV-style LR check: cost and disparity index of each right pixel's claim.
     tag : tuple
-        ``cost.disparity_tag(D)``: the kernel reads D from it, so it is compiled once per D.
+        ``tags.disparity_tag(D)``: the kernel reads D from it, so it is compiled once per D.
     """
 
     costs: np.ndarray
