@@ -493,7 +493,7 @@ def load_kernels(params: SGMParams | None = None, **overrides: Any) -> bool:
     """
     params = _resolve_params(params, overrides)
     # every setting but the range, which picks the kernels only by the disparities per pixel of their buffers
-    # (they are compiled once per padded range: cost.disparity_tag)
+    # (they are compiled once per padded range: tags.disparity_tag)
     key = params.replace(min_disparity=0, num_disparities=kernels.padded_disparities(params.num_disparities,
                                                                                    params.paths))
     if key in _LOADED:
