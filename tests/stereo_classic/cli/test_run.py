@@ -617,12 +617,11 @@ def test_no_default_detector_hint_names_the_fetch_command(tmp_path, monkeypatch,
 
 def test_kernels_loaded_before_the_first_frame_with_the_runs_parameters(tmp_path, monkeypatch):
     # matching.load_kernels runs before the frame loop (whose clock a camera's first frame is measured by)
+    from stereo_classic import checks
     from stereo_classic.cli import run as run_cli
 
     order = []
     real_source = run_cli.run_source
-    from stereo_classic import checks
-
     monkeypatch.setattr(run_cli, "load_kernels", lambda params: order.append(("load", params)))
     # the frame checks' two looks (after a cleared pair and not), whose ranges are their own (compiled per range)
     monkeypatch.setattr(checks, "load_kernels", lambda params: order.append(("look", params)))

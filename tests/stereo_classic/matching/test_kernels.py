@@ -817,8 +817,8 @@ def test_disparity_tag_carries_the_buffers_disparities():
     whole blocks or not, and each worker's buffers carry the tag of their own D."""
     from numba import njit
 
-    from stereo_classic.matching._kernels.tags import disparity_tag, tag_disparities
     from stereo_classic.matching._kernels.rowpass import row_pass_buffers
+    from stereo_classic.matching._kernels.tags import disparity_tag, tag_disparities
 
     read = njit(lambda tag: tag_disparities(tag))
     for D in (1, 8, 31, 32, 64, 70, 96, 128, 256, 1000):
