@@ -324,6 +324,10 @@ class SceneSource:
             for s in scenes]
         first = scenes[0]
         self.rig = first.rig if len(scenes) == 1 and isinstance(first, Scene) else None
+        #: The disparity range of the first scene a run reads, when opening the source read it (the demo; a dataset's
+        #: first scene with a calibration), else None: the commands load the matcher's kernels for it before the
+        #: first frame (they are compiled per range).
+        self.first_max_disparity: int | None = first.max_disparity if isinstance(first, Scene) else None
         #: Things found in the folder but not taken as scenes (a left image without its right image), one line each.
         self.notes: list[str] = []
 
@@ -332,6 +336,7 @@ class SceneSource:
         scene = datasets.demo_scene()
         source = cls([(scene.name, "the built-in demo scene", datasets.demo_scene)])
         source.rig = scene.rig
+        source.first_max_disparity = scene.max_disparity
         return source
 
     @classmethod
@@ -375,6 +380,7 @@ class SceneSource:
                 failures.append(f"{name}: {exc}")
                 continue
             if scene.rig is not None:
+                self.first_max_disparity = scene.max_disparity
                 return scene.rig
             failures.append(f"{name}: no calibration")
         names = ", ".join(f[: f.index(":")] for f in failures[:3])

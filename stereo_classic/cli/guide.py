@@ -173,7 +173,8 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
     current: list[Any] = []          # [original rig, rig of the images matched, Localizer]
     timings: list[dict[str, float]] = []
     frames = events = 0
-    matcher_params = run_command._matcher_params(cfg, None)
+    # the first frame's settings: a scene's own range when the source knows it (the demo, a dataset)
+    matcher_params = run_command._matcher_params(cfg, getattr(source, "first_max_disparity", None))
     load_kernels(matcher_params)  # before the first frame, not while it waits
     FrameChecker(matcher_params).load_kernels()  # the frame checks' looks, whose ranges are their own
     start = time.monotonic()

@@ -297,7 +297,8 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
             writer = _mcap_writer(writer, outdir)
             stack.callback(writer.close)
         if executor is None:  # the matcher's compiled code loaded before the first frame, not while it waits
-            matcher_params = _matcher_params(cfg, None)
+            # the first frame's settings: a scene's own range when the source knows it (the demo, a dataset)
+            matcher_params = _matcher_params(cfg, getattr(source, "first_max_disparity", None))
             load_kernels(matcher_params)
             FrameChecker(matcher_params).load_kernels()  # the frame checks' looks, whose ranges are their own
         started = time.perf_counter()

@@ -74,6 +74,20 @@ def test_scene_source_dataset_folder(shared_data):
         SceneSource([])
 
 
+def test_scene_source_knows_the_first_scenes_range_when_it_read_it(shared_data):
+    # the commands load the matcher's kernels (compiled per range) for it before the first frame
+    from stereo_classic.datasets import demo_scene
+    from stereo_classic.sources import PairSource, SceneSource
+
+    assert SceneSource.demo().first_max_disparity == demo_scene().max_disparity is not None
+    for folder in ("middlebury2014", "drivingstereo", "oakd"):
+        src = SceneSource.from_folder(shared_data / folder)
+        first = next(src.frames())
+        assert src.first_max_disparity == first.max_disparity, folder
+    assert SceneSource.from_folder(shared_data / "middlebury2014").first_max_disparity is not None
+    assert not hasattr(PairSource, "first_max_disparity")  # files of pairs: the range is the command's
+
+
 
 
 def test_names_keep_letters_and_spaces_and_replace_only_unsafe_characters(tmp_path):

@@ -635,3 +635,20 @@ def test_kernels_loaded_before_the_first_frame_with_the_runs_parameters(tmp_path
     assert [p for _, p in order[1:3]] == [checker.look_params(True), checker.look_params(False)]
     assert {(p.min_disparity, p.num_disparities, p.cost, p.paths) for _, p in order[1:3]} == {
         (0, 48, "census", 4), (*checker.look_range(), "census", 4)}
+
+
+def test_kernels_loaded_for_the_range_the_first_scene_is_matched_with(tmp_path, monkeypatch):
+    # the demo's range comes with the scene (no --num-disparities): the kernels, compiled per range, are loaded for
+    # the settings its frame is matched with, not for the command's default range
+    from stereo_classic import runner
+    from stereo_classic.cli import run as run_cli
+
+    loaded, matched = [], []
+    monkeypatch.setattr(run_cli, "load_kernels", loaded.append)
+    real = runner.Localizer
+    monkeypatch.setattr(runner, "Localizer", lambda rig, det, params, **kw: (matched.append(params),
+                                                                             real(rig, det, params, **kw))[1])
+    assert main(["run", "-o", str(tmp_path / "o"), "--save", "json", "--model", "none"]) == 0
+    assert len(loaded) == 1 and len(matched) == 1
+    assert loaded[0] == matched[0]
+    assert loaded[0].num_disparities != run_cli.CLI_NUM_DISPARITIES  # the scene's range, not the default
