@@ -471,8 +471,9 @@ def load_kernels(params: SGMParams | None = None, **overrides: Any) -> bool:
     them loads that code and numba's own registries: about 0.3 s on a 2-core machine (more after an install, when
     they are compiled once). ``run``, ``guide`` and the ROS 2 node call this before their first frame, so that a live
     camera's first frame is not held up by the loading. It matches a small random pair (64 rows; 64 columns more
-    than the range's length or its farther end) with ``params``: the same cost, paths, checks, threads and disparities per pixel (the kernels are
-    compiled once per padded range), so the same kernels (and a learned cost's network) load.
+    than the range's length or its farther end) with ``params``: the same cost, paths, checks, threads and
+    disparities per pixel (the kernels are compiled once per padded range), so the same kernels (and a learned
+    cost's network) load.
 
     Parameters
     ----------
