@@ -37,9 +37,11 @@ from stereo_classic.matching import (
     SGMParams,
     StereoInputError,
     StereoMatcher,
+    load_kernels,
 )
 
-__all__ = ["STAGES", "Localizer", "PipelineResult", "format_rate", "format_timings", "open_detector"]
+__all__ = ["STAGES", "Localizer", "PipelineResult", "format_rate", "format_timings", "load_frame_kernels",
+           "open_detector"]
 
 log = logging.getLogger(__name__)
 
@@ -353,6 +355,15 @@ class Localizer:
         (log.debug if warning.code in self._warned else log.warning)("%s", warning.message)
         self._warned.add(warning.code)
         return objects, (warning,)
+
+
+def load_frame_kernels(params: SGMParams) -> None:
+    """Load now the compiled kernels a :class:`Localizer` with the matcher's ``params`` runs on a frame: the matcher's
+    (``matching.load_kernels``) and its frame checks' two half-size looks (``FrameChecker.load_kernels``), whose
+    ranges are their own (the kernels are compiled once per range). ``run``, ``guide`` and the ROS 2 node call it
+    before their first frame, so that it does not wait for them."""
+    load_kernels(params)
+    FrameChecker(params).load_kernels()
 
 
 def format_rate(frames: int, wall_s: float, first_s: float | None, stages: str) -> str:

@@ -30,7 +30,6 @@ from tqdm import tqdm
 
 import calib
 from stereo_classic import io, sources
-from stereo_classic.checks import FrameChecker
 from stereo_classic.cli import run as run_command
 from stereo_classic.cli.errors import UsageError
 from stereo_classic.cli.inputs import Source, add_input_options, open_source
@@ -38,9 +37,8 @@ from stereo_classic.cli.options import add_options, option_names, read_options
 from stereo_classic.guide import Guide, GuideInputError, GuideParams
 from stereo_classic.guide.render import draw_birdseye, draw_overlay
 from stereo_classic.guide.speech import Speaker
-from stereo_classic.matching import load_kernels
 from stereo_classic.outputs.files import JsonlSink
-from stereo_classic.pipeline import Localizer, format_rate, format_timings
+from stereo_classic.pipeline import Localizer, format_rate, format_timings, load_frame_kernels
 from stereo_classic.runner import in_order, scale_pair
 
 __all__ = ["EVENTS_NAME", "GUIDE_SAVE", "add_parser", "func"]
@@ -173,10 +171,9 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], params: GuideParams, kin
     current: list[Any] = []          # [original rig, rig of the images matched, Localizer]
     timings: list[dict[str, float]] = []
     frames = events = 0
-    # the first frame's settings: a scene's own range when the source knows it (the demo, a dataset)
-    matcher_params = run_command._matcher_params(cfg, getattr(source, "first_max_disparity", None))
-    load_kernels(matcher_params)  # before the first frame, not while it waits
-    FrameChecker(matcher_params).load_kernels()  # the frame checks' looks, whose ranges are their own
+    # before the first frame, not while it waits; its settings: a scene's own range when the source knows it (the
+    # demo, a dataset)
+    load_frame_kernels(run_command._matcher_params(cfg, getattr(source, "first_max_disparity", None)))
     start = time.monotonic()
     first_done: float | None = None  # when the first frame was guided
     bar = tqdm(total=len(source) or None, unit="frame", file=sys.stderr, leave=False,

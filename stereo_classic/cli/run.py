@@ -26,7 +26,6 @@ from tqdm import tqdm
 import calib
 from detectors import ModelNotFoundError, OnnxDetector, resolve_model
 from stereo_classic import sources
-from stereo_classic.checks import FrameChecker
 from stereo_classic.cli.config import (
     FUSION_OPTIONS,
     INPUT_OPTIONS,
@@ -42,7 +41,7 @@ from stereo_classic.cli.options import CLI_NUM_DISPARITIES, add_options, read_op
 from stereo_classic.cli.paths import check_output_dir
 from stereo_classic.fusion import FusionInputError, FusionParams, as_generator
 from stereo_classic.fusion.objects import TABLE_COLUMNS
-from stereo_classic.matching import SGMParams, load_kernels
+from stereo_classic.matching import SGMParams
 from stereo_classic.outputs import (
     DEFAULT_SAVE,
     SAVE_KINDS,
@@ -50,7 +49,8 @@ from stereo_classic.outputs import (
     OutputFolder,
     SettingsMismatchError,
 )
-from stereo_classic.pipeline import PipelineResult, format_rate, format_timings, open_detector
+from stereo_classic.pipeline import (PipelineResult, format_rate, format_timings, load_frame_kernels,
+                                     open_detector)
 from stereo_classic.runner import ON_ERROR, DetectorSpec, RunSummary, run_source
 
 #: Where frames can be processed (``--executor``).
@@ -298,9 +298,7 @@ def _run(args: argparse.Namespace, cfg: dict[str, Any], source: Source, base_rig
             stack.callback(writer.close)
         if executor is None:  # the matcher's compiled code loaded before the first frame, not while it waits
             # the first frame's settings: a scene's own range when the source knows it (the demo, a dataset)
-            matcher_params = _matcher_params(cfg, getattr(source, "first_max_disparity", None))
-            load_kernels(matcher_params)
-            FrameChecker(matcher_params).load_kernels()  # the frame checks' looks, whose ranges are their own
+            load_frame_kernels(_matcher_params(cfg, getattr(source, "first_max_disparity", None)))
         started = time.perf_counter()
         summary = run_source(
             source, writer, params_for=partial(_matcher_params, cfg), rig=base_rig,

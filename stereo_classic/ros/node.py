@@ -149,13 +149,11 @@ class StereoNode:
     # ----------------------------------------------------------------- the worker
     def start(self) -> None:
         """Load the matcher's compiled code (so that the first pair does not wait for it) and start the worker."""
-        from stereo_classic.checks import FrameChecker
-        from stereo_classic.matching import SGMParams, load_kernels
+        from stereo_classic.matching import SGMParams
+        from stereo_classic.pipeline import load_frame_kernels
 
         try:
-            params = SGMParams(**self.matcher)
-            load_kernels(params)
-            FrameChecker(params).load_kernels()  # the frame checks' looks, whose ranges are their own
+            load_frame_kernels(SGMParams(**self.matcher))
         except ValueError:  # a parameter the matcher refuses: each pair's error says which, as before
             pass
         self._worker.start()

@@ -197,9 +197,9 @@ def test_kernels_loaded_before_the_first_frame(walk, tmp_path, monkeypatch):
         assert loaded, "a frame began before the kernels were loaded"
         return Localizer(*args, **kwargs)
 
-    from stereo_classic import checks
+    from stereo_classic import checks, pipeline
 
-    monkeypatch.setattr(guide_cli, "load_kernels", lambda params: loaded.append(params))
+    monkeypatch.setattr(pipeline, "load_kernels", lambda params: loaded.append(params))
     monkeypatch.setattr(checks, "load_kernels", lambda params: loaded.append(params))  # the checks' two looks
     monkeypatch.setattr(guide_cli, "Localizer", localizer)
     assert main(_args(walk, tmp_path / "g")) == 0

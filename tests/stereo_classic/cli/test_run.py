@@ -617,12 +617,12 @@ def test_no_default_detector_hint_names_the_fetch_command(tmp_path, monkeypatch,
 
 def test_kernels_loaded_before_the_first_frame_with_the_runs_parameters(tmp_path, monkeypatch):
     # matching.load_kernels runs before the frame loop (whose clock a camera's first frame is measured by)
-    from stereo_classic import checks
+    from stereo_classic import checks, pipeline
     from stereo_classic.cli import run as run_cli
 
     order = []
     real_source = run_cli.run_source
-    monkeypatch.setattr(run_cli, "load_kernels", lambda params: order.append(("load", params)))
+    monkeypatch.setattr(pipeline, "load_kernels", lambda params: order.append(("load", params)))
     # the frame checks' two looks (after a cleared pair and not), whose ranges are their own (compiled per range)
     monkeypatch.setattr(checks, "load_kernels", lambda params: order.append(("look", params)))
     monkeypatch.setattr(run_cli, "run_source", lambda *a, **k: (order.append(("frames", None)),
@@ -640,11 +640,11 @@ def test_kernels_loaded_before_the_first_frame_with_the_runs_parameters(tmp_path
 def test_kernels_loaded_for_the_range_the_first_scene_is_matched_with(tmp_path, monkeypatch):
     # the demo's range comes with the scene (no --num-disparities): the kernels, compiled per range, are loaded for
     # the settings its frame is matched with, not for the command's default range
-    from stereo_classic import runner
+    from stereo_classic import pipeline, runner
     from stereo_classic.cli import run as run_cli
 
     loaded, matched = [], []
-    monkeypatch.setattr(run_cli, "load_kernels", loaded.append)
+    monkeypatch.setattr(pipeline, "load_kernels", loaded.append)
     real = runner.Localizer
     monkeypatch.setattr(runner, "Localizer", lambda rig, det, params, **kw: (matched.append(params),
                                                                              real(rig, det, params, **kw))[1])
