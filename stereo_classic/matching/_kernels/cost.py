@@ -24,7 +24,8 @@ import numpy as np
 from numba import njit
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
-from stereo_classic.matching._kernels.features import FEATURE_QUANT, FEATURE_SCALE, FEATURES, feature_row_cost
+from stereo_classic.matching._kernels.features import (FEATURE_QUANT, FEATURE_SCALE, FEATURES, feature_row_cost,
+                                                       reverse_code_row)
 from stereo_classic.matching._kernels.intrinsics import (
     absdiff16,
     add16,
@@ -481,10 +482,7 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     ghi = np.int16((gmul_hi - 65536 if gmul_hi >= 32768 else gmul_hi) if high else 0)  # its 16 bits, as int16
     nrr = W + D - 1
     if kind != SAD:  # census: four 16-bit quarters per code (vpopcntw), all in int16 lanes
-        for j in range(nrr):  # rrev[q * nrr + j] = quarter q of the right code at column clamp(W - 1 - dmin - j)
-            c = _clamp(W - 1 - dmin - j, W)
-            for q in range(4):
-                rrev[q * nrr + j] = rcode[y, c, q]
+        reverse_code_row(rcode, y, dmin, nrr, rrev)
     for x in range(W):
         cb = x * D
         bin_ = (x + 2 * h) * D

@@ -16,7 +16,7 @@ from stereo_classic.matching._kernels.intrinsics import add16, max16, min16, pop
 
 __all__ = ["FEATURES", "FEATURE_SCALE", "FEATURE_QUANT", "FEATURE_OUTSIDE", "FEATURE_SIMILARITIES", "CENSUS_MUL_SHIFT",
            "census_term_mul", "check_features", "feature_cost_terms", "feature_row_cost", "quantise_rows",
-           "with_features"]
+           "reverse_code_row", "with_features"]
 
 _U = np.uint64  # unsigned indices: plain vector loads (as in cost.py)
 
@@ -53,6 +53,18 @@ class _NoAlias(CompilerBase):
     def define_pipelines(self):
         self.state.flags.noalias = True
         return [DefaultPassBuilder.define_nopython_pipeline(self.state)]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def reverse_code_row(rcode, y, dmin, nrr, rrev):  # pragma: no cover - numba
+    """``rrev[q * nrr + j]`` = quarter q of the right census code of row ``y`` at column ``clamp(W - 1 - dmin - j)``,
+    j < ``nrr`` (W + D - 1): the right row reversed, so that a left pixel's D candidates are consecutive (the census
+    costs' ``row_cost`` and a learned cost's census term)."""
+    W = rcode.shape[1]
+    for j in range(nrr):
+        c = _clamp(W - 1 - dmin - j, W)
+        for q in range(4):
+            rrev[q * nrr + j] = rcode[y, c, q]
 
 
 #: The census term of a learned cost is ``(h * census_mul + 2**(CENSUS_MUL_SHIFT - 1)) >> CENSUS_MUL_SHIFT`` for a
@@ -108,11 +120,8 @@ def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow, lcode, rcod
     cmul = np.int32(cost.feature_census_mul)
     census = cmul > 0
     cmax16 = np.int16(cost.cmax)
-    if census:  # rrev[q * nrr + j] = quarter q of the right code at column clamp(W - 1 - dmin - j), as row_cost
-        for j in range(nrr):
-            c = _clamp(W - 1 - dmin - j, W)
-            for q in range(4):
-                rrev[q * nrr + j] = rcode[y, c, q]
+    if census:
+        reverse_code_row(rcode, y, dmin, nrr, rrev)
     for x in range(W):
         j0 = W - 1 - x
         for k in range(D):
