@@ -5,6 +5,7 @@
 * ``cost``: census, census + gradient and SAD costs, one row at a time; ``select``: the winner of a row.
 * ``speckle``: the speckle filter's connected components in stripes.
 * ``intrinsics``: int16 arithmetic and popcount as LLVM operations.
+* ``aligned``: arrays whose vectors start on a cache line (the row buffers, the cost images).
 * ``vectors``: 512-bit vectors for the int16 loops where the CPU runs them at full clock (set here, on import,
   before numba compiles anything).
 

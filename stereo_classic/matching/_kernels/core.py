@@ -37,6 +37,7 @@ from stereo_classic.matching._kernels.aggregate import (
     grad_mul,
     sgm_pass,
 )
+from stereo_classic.matching._kernels.aligned import ALIGN_SLACK, aligned_empty, aligned_zeros
 from stereo_classic.matching._kernels.cost import (
     CENSUS,
     SAD,
@@ -51,7 +52,7 @@ from stereo_classic.matching._kernels.cost import (
 )
 from stereo_classic.matching._kernels.features import FEATURES, check_features, with_features
 from stereo_classic.matching._kernels.rowpass import (RowPassBuffers, StripePlan, row_pass_buffers, row_pass_bytes,
-                                                     three_path_stripe)
+                                                     slot_size, three_path_stripe)
 from stereo_classic.matching._kernels.tags import disparity_tag
 from stereo_classic.matching._kernels.texture import texture_table, weak_texture_rows
 from stereo_classic.matching._kernels.workers import run_chained, run_stripes, run_tasks, usable_cpus
@@ -129,15 +130,15 @@ def _thread_buffers(H: int, W: int, D: int) -> ThreadBuffers:
     E = D + 2
     paths, minima = [], []
     for n in (2, W + H + 1, W + 2 * H + 1, W + 2):  # slots of the H, V, A and B directions
-        P = np.zeros((n, E), np.int16)
+        P = aligned_zeros((n, E), np.int16, lead=1)
         P[:, 0] = _SENTINEL
         P[:, E - 1] = _SENTINEL
         paths.append(P.reshape(-1))
         minima.append(np.zeros(n, np.int16))
     return ThreadBuffers(
-        *paths, *minima, crow=np.empty(W * D, np.int16), sums=np.zeros(W * D, np.int16),
-        row_min=np.zeros(W, np.int16), k_index=np.arange(D, dtype=np.int16),
-        right_sums=np.empty(W + D - 1, np.int16), right_k=np.empty(W + D - 1, np.int16),
+        *paths, *minima, crow=aligned_empty(W * D, np.int16), sums=aligned_zeros(W * D, np.int16),
+        row_min=aligned_zeros(W, np.int16), k_index=np.arange(D, dtype=np.int16),
+        right_sums=aligned_empty(W + D - 1, np.int16), right_k=aligned_empty(W + D - 1, np.int16),
         best=np.empty(W, np.int64), counts=np.zeros(3, np.int64),
         claim_cost=np.empty(W, np.int16), claim_k=np.empty(W, np.int16))
 
@@ -154,10 +155,10 @@ def _row_cost_buffers(W: int, D: int, kind: int, h: int, channels: int = 0, cens
     grad, feat = kind not in (CENSUS, FEATURES), kind == FEATURES  # feat: right rows and channel sums, float32
     L = 2 * (W + 2 * h + D - 1)  # two reversed right rows
     return RowCostBuffers(
-        colsum=np.zeros((W + 2 * h) * D if grad else 1, np.int16), hsum=np.zeros(D, np.int16),
-        rrev=np.zeros(4 * (W + D - 1) if kind not in (SAD, FEATURES) or census else 1, np.uint16),
-        srev=np.zeros(L if grad else 1, np.int16), irev=np.zeros(L if kind == SAD else 1, np.int16),
-        floor=np.zeros(D, np.int16), frev=np.zeros(max(1, channels) * (W + D - 1) if feat else 1, np.float32),
+        colsum=aligned_zeros((W + 2 * h) * D if grad else 1, np.int16), hsum=aligned_zeros(D, np.int16),
+        rrev=aligned_zeros(4 * (W + D - 1) if kind not in (SAD, FEATURES) or census else 1, np.uint16),
+        srev=aligned_zeros(L if grad else 1, np.int16), irev=aligned_zeros(L if kind == SAD else 1, np.int16),
+        floor=aligned_zeros(D, np.int16), frev=np.zeros(max(1, channels) * (W + D - 1) if feat else 1, np.float32),
         facc=np.zeros(D if feat else 1, np.float32), tag=disparity_tag(D))
 
 
@@ -177,7 +178,7 @@ def _row_cost_bytes(W: int, D: int, kind: int, h: int, channels: int = 0, census
 
 
 def _reset_row_pass(b: RowPassBuffers, D: int) -> None:
-    b.path_v.reshape(-1, D + 2)[:, 1:D + 1] = 0
+    b.path_v.reshape(-1, slot_size(D))[:, 1:D + 1] = 0
     b.min_v[:] = 0
 
 
@@ -204,7 +205,7 @@ class Workspace:
         when worker threads fault on it at once."""
         arr = self._scratch.get(name)
         if arr is None or arr.shape != tuple(shape) or arr.dtype != np.dtype(dtype):
-            arr = np.empty(shape, dtype)
+            arr = aligned_empty(shape, dtype)
             self._scratch[name] = arr
         return arr
 
@@ -233,7 +234,7 @@ def scratch_allocator(workspace: Workspace | None) -> Callable[[str, tuple[int, 
     """``workspace.scratch``, or a fresh ``np.empty`` for every temporary without a workspace."""
     if workspace is not None:
         return workspace.scratch
-    return lambda name, shape, dtype: np.empty(shape, dtype)
+    return lambda name, shape, dtype: aligned_empty(shape, dtype)
 
 
 def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 8, lr_check: bool = True,
@@ -262,6 +263,7 @@ def memory_bytes(height: int, width: int, num_disparities: int, *, paths: int = 
         total += 2 * 8 * H * W + 2 * (H + 20) * (W + 20)  # four uint16 quarters per pixel, and the padded images
     if kind not in (CENSUS, FEATURES):  # prefiltered images (gradient; and intensity for SAD)
         total += 2 * 2 * H * W * (2 if kind == SAD else 1) + 2 * (H + 2) * (W + 2) * 2
+    total += ALIGN_SLACK * 32 * (1 + workers)  # where the arrays start (aligned.py): at most 32 a call and a worker
     if paths == 3:
         cost_state = _row_cost_bytes(W, D, kind, h, feature_channels, feature_census)
         return total + workers * (row_pass_bytes(H, W, D, WARMUP_ROWS) + cost_state)
@@ -384,9 +386,9 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
         S, bufs = workspace.S, workspace.bufs
     else:
         if one_sweep:
-            S = np.empty((H, W, D), np.int16) if keep_sums else np.zeros(1, np.int16)
+            S = aligned_empty((H, W, D), np.int16) if keep_sums else np.zeros(1, np.int16)
         else:
-            S = np.empty((H + n_workers, W, D), np.int16)  # + one scratch row per worker for warm-up rows
+            S = aligned_empty((H + n_workers, W, D), np.int16)  # + one scratch row per worker for warm-up rows
         # per worker: the cost state and the kernel's row buffers
         bufs = [(_row_cost_buffers(W, D, kind, h, channels, census_term),
                  row_pass_buffers(H, W, D, WARMUP_ROWS) if one_sweep else _thread_buffers(H, W, D))

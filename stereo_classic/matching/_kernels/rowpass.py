@@ -27,6 +27,7 @@ import numpy as np
 from numba import njit
 
 from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr, _p2_at, cross_penalty
+from stereo_classic.matching._kernels.aligned import aligned_empty, aligned_zeros
 from stereo_classic.matching._kernels.cost import (
     NoAliasCompiler,
     pixel_penalties,
@@ -36,9 +37,11 @@ from stereo_classic.matching._kernels.intrinsics import add16, min16
 from stereo_classic.matching._kernels.select import right_view_row, select_row
 from stereo_classic.matching._kernels.tags import disparity_tag, tag_disparities
 
-__all__ = ["RowPassBuffers", "StripePlan", "three_path_stripe", "row_pass_buffers", "row_pass_bytes"]
+__all__ = ["RowPassBuffers", "StripePlan", "three_path_stripe", "row_pass_buffers", "row_pass_bytes", "slot_size"]
 
 _INT16_MAX = 32767
+#: int16 elements per 64-byte cache line: a path slot's size is a whole number of them (``slot_size``).
+_SLOT_ALIGN = 32
 _U = np.uint64  # unsigned flat indices: no wraparound code, contiguous vector loads
 
 
@@ -76,7 +79,7 @@ class StripePlan(NamedTuple):
 
 
 class RowPassBuffers(NamedTuple):
-    """Row buffers of one thread (int16 unless said otherwise; E = D + 2).
+    """Row buffers of one thread (int16 unless said otherwise; E = ``slot_size(D)``).
 
     Attributes
     ----------
@@ -88,7 +91,8 @@ class RowPassBuffers(NamedTuple):
     srow : (2, W * D) int16
         Per row parity: left + top sums of the row, then (after its right-to-left sweep) the complete sums.
     path_v : ((W + H + 1) * E,) int16
-        Skewed top-path vectors, sentinels at both disparity ends.
+        Skewed top-path vectors, one slot of E each: a sentinel, the D disparities (64-byte aligned), a sentinel,
+        padding.
     min_v : (W + H + 1,) int16
         Minimum of each top-path vector.
     path_h : (2 * E,) int16
@@ -132,27 +136,40 @@ class RowPassBuffers(NamedTuple):
     tag: tuple
 
 
+def slot_size(D: int) -> int:
+    """int16 elements of one path vector's slot for D disparities: a sentinel, the D values, a sentinel, then padding
+    to a whole number of 64-byte cache lines, so that with the buffer's element 1 on a cache line every slot's values
+    start on one (the kernel writes each vector whole; see docs/matching.md, "Buffers on a cache line").
+
+    >>> slot_size(64), slot_size(128)
+    (96, 160)
+    """
+    return -(-(D + 2) // _SLOT_ALIGN) * _SLOT_ALIGN
+
+
 def row_pass_buffers(H: int, W: int, D: int, warm_rows: int = 0) -> RowPassBuffers:
     """Fresh buffers for one worker (path vectors zero = the path start, sentinels in place)."""
-    E = D + 2
+    E = slot_size(D)
     slots = W + H + 1
-    pv = np.zeros((slots, E), np.int16)
-    pv[:, 0] = pv[:, E - 1] = _SENTINEL
-    ph = np.zeros((2, E), np.int16)
-    ph[:, 0] = ph[:, E - 1] = _SENTINEL
+    pv = aligned_zeros((slots, E), np.int16, lead=1)  # element 1: the first disparity of slot 0
+    pv[:, 0] = pv[:, D + 1] = _SENTINEL
+    ph = aligned_zeros((2, E), np.int16, lead=1)
+    ph[:, 0] = ph[:, D + 1] = _SENTINEL
+    pr = aligned_empty((2, E), np.int16, lead=1)
+    pr[...] = ph
     return RowPassBuffers(
-        costs=np.empty((warm_rows + 2, W * D), np.int16), srow=np.empty((2, W * D), np.int16), path_v=pv.reshape(-1),
-        min_v=np.zeros(slots, np.int16), path_h=ph.reshape(-1), min_h=np.zeros(2, np.int16),
-        path_r=ph.reshape(-1).copy(), min_r=np.zeros(2, np.int16),
-        row_min=np.empty(W, np.int16), k_index=np.arange(D, dtype=np.int16),
-        right_sums=np.empty(W + D - 1, np.int16), right_k=np.empty(W + D - 1, np.int16),
+        costs=aligned_empty((warm_rows + 2, W * D), np.int16), srow=aligned_empty((2, W * D), np.int16),
+        path_v=pv.reshape(-1), min_v=np.zeros(slots, np.int16), path_h=ph.reshape(-1), min_h=np.zeros(2, np.int16),
+        path_r=pr.reshape(-1), min_r=np.zeros(2, np.int16),
+        row_min=aligned_empty(W, np.int16), k_index=np.arange(D, dtype=np.int16),
+        right_sums=aligned_empty(W + D - 1, np.int16), right_k=aligned_empty(W + D - 1, np.int16),
         best=np.empty(W, np.int64), counts=np.zeros(3, np.int64),
         claim_cost=np.empty(W, np.int16), claim_k=np.empty(W, np.int16), tag=disparity_tag(D))
 
 
 def row_pass_bytes(H: int, W: int, D: int, warm_rows: int = 0) -> int:
     """Bytes of ``row_pass_buffers(H, W, D, warm_rows)``."""
-    E = D + 2
+    E = slot_size(D)
     slots = W + H + 1
     return (2 * (warm_rows + 4) * W * D + 2 * slots * E + 2 * slots + 2 * 2 * 2 * E + 8 + 2 * W + 2 * D
             + 2 * 2 * (W + D - 1) + 8 * W + 16 + 2 * 2 * W)
@@ -204,7 +221,7 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     right_view = settings.right_view
     Sf = out.sums
     D = tag_disparities(bufs.tag)  # len(bufs.k_index), as a constant: compiled once per D
-    E = D + 2
+    E = -(-(D + 2) // _SLOT_ALIGN) * _SLOT_ALIGN  # slot_size(D)
     big = np.int16(_INT16_MAX)
     zero = np.int16(0)
     n_rows = plan.n_rows

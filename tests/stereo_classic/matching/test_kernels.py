@@ -830,3 +830,73 @@ def test_disparity_tag_carries_the_buffers_disparities():
     for bad in (0, -3):
         with pytest.raises(ValueError, match="`D` must be"):
             disparity_tag(bad)
+
+
+def test_buffers_start_on_a_cache_line():
+    """The row buffers, the cost state and the workspace's arrays start on a 64-byte boundary, and so does every
+    path slot's first disparity (element 1 of a slot of ``slot_size(D)``), for whole and padded ranges."""
+    from stereo_classic.matching._kernels.aligned import ALIGNMENT, aligned_empty, aligned_zeros
+    from stereo_classic.matching._kernels.rowpass import row_pass_buffers, slot_size
+
+    def on_line(a: np.ndarray, element: int = 0) -> bool:
+        return (a.ctypes.data + element * a.itemsize) % ALIGNMENT == 0
+
+    for D in (64, 96, 128, 160):
+        E = slot_size(D)
+        assert E >= D + 2 and E * 2 % ALIGNMENT == 0
+        b = row_pass_buffers(30, 77, D, warm_rows=16)
+        for name in ("costs", "srow", "row_min", "right_sums", "right_k"):
+            assert on_line(getattr(b, name)), name
+        for name in ("path_v", "path_h", "path_r"):
+            P = getattr(b, name).reshape(-1, E)
+            assert all(on_line(P, s * E + 1) for s in range(P.shape[0])), name
+            assert (P[:, 0] == P[0, 0]).all() and (P[:, D + 1] == P[0, 0]).all() and P[0, 0] != 0  # sentinels
+            assert (P[:, 1:D + 1] == 0).all()
+        c = core._row_cost_buffers(77, D, 2, 2)  # census + gradient
+        for name in ("colsum", "hsum", "floor", "rrev", "srev"):
+            assert on_line(getattr(c, name)), name
+    ws = core.Workspace()
+    assert on_line(ws.scratch("x", (7, 9), np.float32)) and on_line(core.scratch_allocator(None)("y", (5,), np.int16))
+    for dtype, lead in ((np.int16, 0), (np.int16, 1), (np.int16, 31), (np.uint8, 63), (np.float64, 7)):
+        a = aligned_zeros((3, 11), dtype, lead=lead)
+        assert a.shape == (3, 11) and a.dtype == dtype and a.flags.c_contiguous and not a.any()
+        assert on_line(a, lead) and aligned_empty(5, dtype).shape == (5,)
+    for bad in (-1, 32):
+        with pytest.raises(ValueError, match="`lead`"):
+            aligned_empty(4, np.int16, lead=bad)
+
+
+@pytest.mark.parametrize("paths", [3, 8])
+def test_output_does_not_depend_on_where_the_buffers_start(paths, monkeypatch):
+    """Where the buffers start is a matter of speed only: with every buffer moved 16 bytes off its cache line (path
+    slots included), both views and the counts are the same bit for bit."""
+    from stereo_classic.matching._kernels import aligned, rowpass
+
+    tex = _textured(70, 160, seed=5)
+    left = np.round(tex).astype(np.uint8)
+    right = np.round(_sample_rows(tex, np.arange(160)[None, :].repeat(70, 0) + 7)).astype(np.uint8)
+    kw = dict(cost="census+grad", num_disparities=40, paths=paths, uniqueness=0.05, lr_check=1.0, return_right=True,
+              threads=2, p1=28, p2=112)
+    d, dr, t = core.sgm_match(left, right, **kw)
+    made = []
+
+    def off_line(shape, dtype, lead=0):
+        made.append(shape)
+        a = aligned.aligned_empty(np.prod(shape, dtype=np.int64) * np.dtype(dtype).itemsize + 16, np.uint8)
+        out = a[16:].view(dtype).reshape(shape)
+        assert (out.ctypes.data + lead * out.itemsize) % aligned.ALIGNMENT != 0
+        return out
+
+    def off_line_zeros(shape, dtype, lead=0):
+        out = off_line(shape, dtype, lead)
+        out[...] = 0
+        return out
+
+    for module in (core, rowpass):
+        monkeypatch.setattr(module, "aligned_empty", off_line)
+        monkeypatch.setattr(module, "aligned_zeros", off_line_zeros)
+    d1, dr1, t1 = core.sgm_match(left, right, **kw)
+    assert len(made) >= 10  # the row buffers, the cost state and the cost images
+    np.testing.assert_array_equal(d, d1)
+    np.testing.assert_array_equal(dr, dr1)
+    assert t["n_failed_lr"] == t1["n_failed_lr"] and np.isfinite(d).mean() > 0.5
