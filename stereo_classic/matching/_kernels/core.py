@@ -231,7 +231,7 @@ class Workspace:
 
 
 def scratch_allocator(workspace: Workspace | None) -> Callable[[str, tuple[int, ...], Any], np.ndarray]:
-    """``workspace.scratch``, or a fresh ``np.empty`` for every temporary without a workspace."""
+    """``workspace.scratch``, or a fresh ``aligned_empty`` array for every temporary without a workspace."""
     if workspace is not None:
         return workspace.scratch
     return lambda name, shape, dtype: aligned_empty(shape, dtype)
