@@ -3,9 +3,9 @@
 numpy's allocator gives 16-byte aligned memory, so a 64-byte vector (32 int16 lanes of AVX-512, two 256-bit
 vectors) read or written at a pixel's first disparity spans two cache lines and costs a split access. The
 kernels read and write every pixel's disparities from such buffers in whole vectors, so where the buffers start
-matters: measured on the KITTI pair at 128 disparities (same compiled kernels, the two layouts alternated in one
-process, bit-identical output), the aggregation 50.1 -> 45.5 ms at 1 thread (docs/matching.md, "Buffers on a
-cache line").
+matters: with the path slots padded too (``rowpass.slot_size``), the KITTI pair at 128 disparities took 60.4 -> 55.0 ms
+at 1 thread and 33.8 -> 32.0 at 2 threads, the OAK-D VGA pair 17.3 -> 15.4 ms at 2 threads, bit-identical output
+(docs/matching.md, "Fourth round: buffers on a cache line").
 """
 
 from __future__ import annotations

@@ -136,10 +136,12 @@ class RowPassBuffers(NamedTuple):
     tag: tuple
 
 
-def slot_size(D: int) -> int:
+@njit(cache=True, nogil=True, inline="always")
+def slot_size(D):  # pragma: no cover - numba
     """int16 elements of one path vector's slot for D disparities: a sentinel, the D values, a sentinel, then padding
     to a whole number of 64-byte cache lines, so that with the buffer's element 1 on a cache line every slot's values
-    start on one (the kernel writes each vector whole; see docs/matching.md, "Buffers on a cache line").
+    start on one (the kernel writes each vector whole; docs/matching.md, "Fourth round: buffers on a cache line").
+    The buffers' makers and the kernel both call it.
 
     >>> slot_size(64), slot_size(128)
     (96, 160)
@@ -221,7 +223,7 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     right_view = settings.right_view
     Sf = out.sums
     D = tag_disparities(bufs.tag)  # len(bufs.k_index), as a constant: compiled once per D
-    E = -(-(D + 2) // _SLOT_ALIGN) * _SLOT_ALIGN  # slot_size(D)
+    E = slot_size(D)
     big = np.int16(_INT16_MAX)
     zero = np.int16(0)
     n_rows = plan.n_rows
