@@ -258,6 +258,11 @@ def run_node(make_localizer: Any, *, ros_args: list[str], guide: bool = False, n
         executor.spin()
     except (KeyboardInterrupt, ros["executors"].ExternalShutdownException):
         pass
+    except RuntimeError:  # rclpy's RCLError is one
+        if rclpy.ok():
+            raise
+        # a signal's handler shut the context down while the executor was making its wait set ("failed to
+        # initialize wait set: the given context is not valid", rclpy's known race, ros2/rclpy#968): the stop asked for
     finally:
         stereo.stop()  # rclpy's context may be shut down already (a signal): say it on this package's log
         seconds = time.monotonic() - started

@@ -125,3 +125,46 @@ def test_node_publishes_what_run_measures(kitti, files_objects, tmp_path, monkey
     text = (tmp_path / "node.log").read_text()
     assert code == 0 and "stopped: " in text, text
     assert "frames/s" in text  # the rate report
+
+
+@pytest.mark.parametrize("shut_down", [True, False])
+def test_a_signal_during_the_wait_set_is_a_clean_stop(shut_down, monkeypatch, caplog):
+    """rclpy's race (ros2/rclpy#968): SIGTERM's handler shuts the context down while the executor makes its wait set,
+    and ``spin`` raises "failed to initialize wait set: the given context is not valid". That is the stop asked for:
+    exit 0 with the closing line. The same error while the context is still up is a real one: raised."""
+    import types
+
+    from rclpy.executors import ExternalShutdownException
+
+    from stereo_classic.ros import node as ros_node
+
+    class Executor:
+        def add_node(self, node):
+            self.node = node
+
+        def spin(self):
+            if shut_down:
+                rclpy.shutdown()
+            raise RuntimeError("failed to initialize wait set: the given context is not valid, either rcl_init() was "
+                               "not called or rcl_shutdown() was called.")
+
+        def shutdown(self):
+            pass
+
+    real = ros_node._ros()
+    fake = dict(real, executors=types.SimpleNamespace(SingleThreadedExecutor=Executor,
+                                                      ExternalShutdownException=ExternalShutdownException))
+    monkeypatch.setattr(ros_node, "_ros", lambda: fake)
+    monkeypatch.setenv("ROS_DOMAIN_ID", _env()["ROS_DOMAIN_ID"])
+
+    def no_frames(*args):
+        raise AssertionError("no frame was sent")
+
+    caplog.set_level("INFO", logger="stereo_classic.ros")
+    if shut_down:
+        assert ros_node.run_node(no_frames, ros_args=[]) == 0
+        assert "stopped: 0 frame(s) processed" in caplog.text
+    else:
+        with pytest.raises(RuntimeError, match="wait set"):
+            ros_node.run_node(no_frames, ros_args=[])
+    assert not rclpy.ok()  # the node shut rclpy down either way
