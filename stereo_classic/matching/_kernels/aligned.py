@@ -32,7 +32,9 @@ def aligned_empty(shape: int | tuple[int, ...], dtype, lead: int = 0) -> np.ndar
     shape = (int(shape),) if np.isscalar(shape) else tuple(int(n) for n in shape)
     nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
     lead_bytes = int(lead) * dtype.itemsize
-    if ALIGNMENT % dtype.itemsize or not 0 <= lead_bytes < ALIGNMENT:
+    if ALIGNMENT % dtype.itemsize:
+        raise ValueError(f"`dtype` must have an item size that divides {ALIGNMENT} bytes, got {dtype}")
+    if not 0 <= lead_bytes < ALIGNMENT:
         raise ValueError(f"`lead` must be a count of {dtype} elements within {ALIGNMENT} bytes, got {lead}")
     raw = np.empty(nbytes + ALIGNMENT, np.uint8)
     start = (-(raw.ctypes.data + lead_bytes)) % ALIGNMENT  # raw[start + lead_bytes] is aligned

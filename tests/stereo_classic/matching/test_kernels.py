@@ -864,6 +864,8 @@ def test_buffers_start_on_a_cache_line():
     for bad in (-1, 32):
         with pytest.raises(ValueError, match="`lead`"):
             aligned_empty(4, np.int16, lead=bad)
+    with pytest.raises(ValueError, match="`dtype`"):
+        aligned_empty(4, np.dtype("V3"))
 
 
 @pytest.mark.parametrize("paths", [3, 8])
