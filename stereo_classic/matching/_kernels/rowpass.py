@@ -149,20 +149,21 @@ def slot_size(D):  # pragma: no cover - numba
     return -(-(D + 2) // _SLOT_ALIGN) * _SLOT_ALIGN
 
 
+def _path_slots(n: int, D: int) -> np.ndarray:
+    """``n`` path-vector slots of ``slot_size(D)``, flat: zeros (the path start) between a sentinel either side,
+    element 1 (slot 0's first disparity) on a cache line."""
+    P = aligned_zeros((n, slot_size(D)), np.int16, lead=1)
+    P[:, 0] = P[:, D + 1] = _SENTINEL
+    return P.reshape(-1)
+
+
 def row_pass_buffers(H: int, W: int, D: int, warm_rows: int = 0) -> RowPassBuffers:
     """Fresh buffers for one worker (path vectors zero = the path start, sentinels in place)."""
-    E = slot_size(D)
     slots = W + H + 1
-    pv = aligned_zeros((slots, E), np.int16, lead=1)  # element 1: the first disparity of slot 0
-    pv[:, 0] = pv[:, D + 1] = _SENTINEL
-    ph = aligned_zeros((2, E), np.int16, lead=1)
-    ph[:, 0] = ph[:, D + 1] = _SENTINEL
-    pr = aligned_empty((2, E), np.int16, lead=1)
-    pr[...] = ph
     return RowPassBuffers(
         costs=aligned_empty((warm_rows + 2, W * D), np.int16), srow=aligned_empty((2, W * D), np.int16),
-        path_v=pv.reshape(-1), min_v=np.zeros(slots, np.int16), path_h=ph.reshape(-1), min_h=np.zeros(2, np.int16),
-        path_r=pr.reshape(-1), min_r=np.zeros(2, np.int16),
+        path_v=_path_slots(slots, D), min_v=np.zeros(slots, np.int16), path_h=_path_slots(2, D),
+        min_h=np.zeros(2, np.int16), path_r=_path_slots(2, D), min_r=np.zeros(2, np.int16),
         row_min=aligned_empty(W, np.int16), k_index=np.arange(D, dtype=np.int16),
         right_sums=aligned_empty(W + D - 1, np.int16), right_k=aligned_empty(W + D - 1, np.int16),
         best=np.empty(W, np.int64), counts=np.zeros(3, np.int64),
