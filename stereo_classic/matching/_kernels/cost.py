@@ -33,6 +33,7 @@ from stereo_classic.matching._kernels.intrinsics import (
     max16,
     min16,
     mulhi16,
+    mullo16,
     mulshr16,
     popxor16,
     shr16,
@@ -480,6 +481,10 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     gmul_hi = cost.grad_mul << (16 - GRAD_SHIFT)
     high = gmul_hi < 65536
     ghi = np.int16((gmul_hi - 65536 if gmul_hi >= 32768 else gmul_hi) if high else 0)  # its 16 bits, as int16
+    # Past the first column: the product itself in 16 bits (``mullo16``, two instructions for 32 lanes where numba's
+    # LLVM turns ``mulhi16`` into eight) while the largest window sum (2 * SOBEL_CAP a pixel) times grad_mul stays
+    # below 2 ** 16: every block size but 15, 17 and 19, which keep ``mulhi16``. docs/matching.md, fifth round.
+    narrow = 2 * SOBEL_CAP * (2 * h + 1) * (2 * h + 1) * cost.grad_mul < 65536
     nrr = W + D - 1
     if kind != SAD:  # census: four 16-bit quarters per code (vpopcntw), all in int16 lanes
         reverse_code_row(rcode, y, dmin, nrr, rrev)
@@ -488,7 +493,7 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
         bin_ = (x + 2 * h) * D
         bout = (x - 1) * D
         # census + grad past the first column moves the window sum on in its cost loop (one pass over D, below)
-        fused = grad and high and kind != SAD and x > 0
+        fused = grad and (narrow or high) and kind != SAD and x > 0
         if grad and not fused:  # the window sum of the pixel: hsum over the column sums x - h .. x + h
             if x == 0:
                 sad_hsum_init(hsum, colsum, 0, h, D)
@@ -507,7 +512,15 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
         j1 = j0 + nrr
         j2 = j1 + nrr
         j3 = j2 + nrr
-        if fused:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT
+        if fused and narrow:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT
+            for k in range(D):
+                hs = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
+                hsum[k] = hs
+                crow[_U(cb + k)] = max16(add16(
+                    add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                          add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)]))),
+                    mullo16(hs, gmul, gshift)), floor[k])
+        elif fused:  # the same through the high half of a 16-bit product
             for k in range(D):
                 hs = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
                 hsum[k] = hs

@@ -86,6 +86,44 @@ def test_sad_block_sizes_match_reference(block_size, cost):
     np.testing.assert_array_equal(core.cost_volume(left, right, **kw), ref.cost_volume_reference(left, right, **kw))
 
 
+@pytest.mark.parametrize("block_size", range(1, 22, 2))
+def test_gradient_term_at_its_largest_window_sums(block_size):
+    """census+grad where |Sobel_x(L) - Sobel_x(R)| is 2 * SOBEL_CAP wherever no ramp wraps (ramps of 8 grey levels a
+    pixel, rising on the left, falling on the right, 32 pixels a period), so that window sums reach their largest,
+    2 * SOBEL_CAP * block**2: the row cost's product in 16 bits (``mullo16``, every block size whose largest sum times
+    grad_mul is below 2**16) and its high-half product (15, 17, 19) against the reference, every block size."""
+    from stereo_classic.matching._kernels.cost import SOBEL_CAP, sad_prefilter
+
+    x = np.arange(80)
+    left = np.tile(((x * 8) % 256).astype(np.uint8), (block_size + 6, 1))
+    right = np.tile((255 - (x * 8) % 256).astype(np.uint8), (block_size + 6, 1))
+    ad = np.abs(sad_prefilter(left)[0].astype(np.int64) - sad_prefilter(right)[0])  # disparity 0
+    windows = np.lib.stride_tricks.sliding_window_view(ad, (block_size, block_size)).sum(axis=(2, 3))
+    assert windows.max() == 2 * SOBEL_CAP * block_size**2  # the largest sum is reached
+    kw = dict(cost="census+grad", min_disparity=0, num_disparities=6, block_size=block_size, p2=P2)
+    np.testing.assert_array_equal(core.cost_volume(left, right, **kw), ref.cost_volume_reference(left, right, **kw))
+
+
+def test_mullo16_is_the_product_modulo_2_16_shifted():
+    """``intrinsics.mullo16(a, m, n)``: ``(a * m) >> n`` with the product taken modulo 2**16 and read as unsigned (exact
+    below 2**16, the row cost's case), in a loop numba vectorises as the row cost's."""
+    from numba import njit
+
+    from stereo_classic.matching._kernels.intrinsics import mullo16
+
+    @njit(cache=False)
+    def run(a, m, n, out):  # pragma: no cover - numba
+        for i in range(a.shape[0]):
+            out[i] = mullo16(a[i], m, n)
+
+    a = np.random.default_rng(5).integers(0, 32768, 4099).astype(np.int16)
+    for m, n in ((41, 10), (1024, 10), (13, 10), (114, 10), (5, 10), (3, 0), (2, 1)):
+        out = np.empty_like(a)
+        run(a, np.int16(m), np.int16(n), out)
+        expect = (((a.astype(np.int64) * m) % 65536) >> n).astype(np.uint16).view(np.int16)
+        np.testing.assert_array_equal(out, expect)
+
+
 def test_census_is_invariant_to_gain_and_offset():
     left, _ = _pair(4)
     bright = np.clip(left.astype(np.float64) * 1.3 + 20, 0, 255).astype(np.uint8)
