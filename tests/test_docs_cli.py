@@ -30,7 +30,7 @@ COMMANDS = [
     ("benchmarks", "benchmarks.__main__", [], (CLI_MD,)),
     *[(f"benchmarks.{m}", f"benchmarks.{m}", [], (CLI_MD,))
       for m in ("sgm_speed", "density", "kitti_objects", "guide_ground", "guide_cost", "throughput", "pair_check",
-                "render", "detector_latency", "pipeline_table")],
+                "render", "detector_latency", "pipeline_table", "kernel_profile")],
     ("benchmarks.objects", "benchmarks.object_errors", [], (CLI_MD,)),  # objects' __main__ runs object_errors.main
 ]
 #: Modules run with ``python -m`` that are not commands for a user: memprobe is the benchmark's own child process.
