@@ -431,6 +431,22 @@ def sad_hsum_init(hsum, colsum, x, h, D):  # pragma: no cover - numba
             hsum[k] += colsum[_U(base + k)]
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k):  # pragma: no cover - numba
+    """Census cost of disparity index k: the differing bits of the left code's quarters a0 .. a3 and the reversed
+    right row's (quarter q from ``rrev[jq]``)."""
+    return add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                 add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _moved_sum(hsum, colsum, bout, bin_, k):  # pragma: no cover - numba
+    """The gradient window sum of index k moved one column on (column sums ``bout`` out, ``bin_`` in), stored."""
+    hs = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
+    hsum[k] = hs
+    return hs
+
+
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - numba
     """The matching cost of every pixel of row ``y``: ``crow[x * D + k]`` (int16), disparity ``min_disparity + k``.
@@ -514,37 +530,25 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
         j3 = j2 + nrr
         if fused and narrow:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT
             for k in range(D):
-                hs = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
-                hsum[k] = hs
-                crow[_U(cb + k)] = max16(add16(
-                    add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
-                          add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)]))),
-                    mullo16(hs, gmul, gshift)), floor[k])
+                hs = _moved_sum(hsum, colsum, bout, bin_, k)
+                crow[_U(cb + k)] = max16(add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k),
+                                               mullo16(hs, gmul, gshift)), floor[k])
         elif fused:  # the same through the high half of a 16-bit product
             for k in range(D):
-                hs = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
-                hsum[k] = hs
-                crow[_U(cb + k)] = max16(add16(
-                    add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
-                          add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)]))),
-                    mulhi16(hs, ghi)), floor[k])
+                hs = _moved_sum(hsum, colsum, bout, bin_, k)
+                crow[_U(cb + k)] = max16(add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k),
+                                               mulhi16(hs, ghi)), floor[k])
         elif grad and high:  # the first column: the window sum made above
             for k in range(D):
-                crow[_U(cb + k)] = max16(add16(
-                    add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
-                          add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)]))),
-                    mulhi16(hsum[k], ghi)), floor[k])
+                crow[_U(cb + k)] = max16(add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k),
+                                               mulhi16(hsum[k], ghi)), floor[k])
         elif grad:  # the same in 32-bit products (block size 1: grad_mul is 2 ** GRAD_SHIFT)
             for k in range(D):
-                crow[_U(cb + k)] = max16(add16(
-                    add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
-                          add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)]))),
-                    mulshr16(hsum[k], gmul, gshift)), floor[k])
+                crow[_U(cb + k)] = max16(add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k),
+                                               mulshr16(hsum[k], gmul, gshift)), floor[k])
         else:
             for k in range(D):
-                crow[_U(cb + k)] = max16(add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
-                                               add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)]))),
-                                         floor[k])
+                crow[_U(cb + k)] = max16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k), floor[k])
     nd = cost.num_disparities
     for x in range(W):  # disparities whose match is outside the right image: k outside [k_lo, k_hi]
         k_lo, k_hi = valid_range(x, W, dmin, nd)
