@@ -150,7 +150,8 @@ def perf_available() -> str | None:
         except (OSError, subprocess.SubprocessError) as exc:
             return f"`perf record` failed: {exc}"
         if run.returncode != 0:
-            return f"`perf record` failed: {(run.stderr or run.stdout).strip().splitlines()[-1:] or run.returncode}"
+            said = (run.stderr or run.stdout).strip().splitlines()
+            return f"`perf record` failed: {said[-1] if said else f'exit status {run.returncode}'}"
     return None
 
 

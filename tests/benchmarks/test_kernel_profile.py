@@ -81,3 +81,17 @@ def test_the_probe_names_where_the_time_went():
     assert samples.get("rowpass.three_path_stripe", 0) > 0  # the aggregation, named through the map
     top3 = sorted(samples, key=samples.get, reverse=True)[:3]
     assert "rowpass.three_path_stripe" in top3, samples
+
+
+def test_a_perf_that_cannot_sample_is_said_and_the_probe_exits_1(tmp_path, monkeypatch, capsys):
+    fake = tmp_path / "perf"
+    fake.write_text("#!/bin/sh\necho 'Access to performance monitoring and observability operations is limited.' >&2\n"
+                    "exit 255\n")
+    fake.chmod(0o755)
+    monkeypatch.setattr(kp.shutil, "which", lambda name: str(fake) if name == "perf" else None)
+    why = kp.perf_available()
+    assert why == "`perf record` failed: Access to performance monitoring and observability operations is limited."
+    with pytest.raises(RuntimeError, match="performance monitoring"):
+        kp.profile(lambda: None, 1)
+    assert kp.main(["--frames", "1"]) == 1
+    assert capsys.readouterr().err.startswith("error: `perf record` failed: Access")
