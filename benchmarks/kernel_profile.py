@@ -139,14 +139,16 @@ def summarize(samples: Mapping[str, int], *, frames: int, rate: float, pixels: i
 
 
 def perf_available() -> str | None:
-    """None when ``perf record`` can sample this process's own threads here, else why not."""
+    """None when ``perf record`` can attach to this process and sample it here (as ``profile`` does: a child attaching
+    to its parent, which some kernels' ptrace rules forbid), else why not."""
     perf = shutil.which("perf")
     if perf is None:
         return "no `perf` on PATH"
     with tempfile.TemporaryDirectory() as tmp:
         try:
-            run = subprocess.run([perf, "record", "-q", "-e", "cpu-clock", "-o", str(Path(tmp) / "probe.data"), "--",
-                                  "true"], capture_output=True, text=True, timeout=60)
+            run = subprocess.run([perf, "record", "-q", "-e", "cpu-clock", "-p", str(os.getpid()), "-o",
+                                  str(Path(tmp) / "probe.data"), "--", "sleep", "0.1"],
+                                 capture_output=True, text=True, timeout=60)
         except (OSError, subprocess.SubprocessError) as exc:
             return f"`perf record` failed: {exc}"
         if run.returncode != 0:
