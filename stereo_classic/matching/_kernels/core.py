@@ -22,7 +22,6 @@ import numpy as np
 
 from stereo_classic.matching._kernels.aggregate import (
     _KIND,
-    _SENTINEL,
     ALL_PATHS,
     FOUR_PATHS,
     PATH_NAMES,
@@ -51,8 +50,8 @@ from stereo_classic.matching._kernels.cost import (
     sobel_rows,
 )
 from stereo_classic.matching._kernels.features import FEATURES, check_features, with_features
-from stereo_classic.matching._kernels.rowpass import (RowPassBuffers, StripePlan, row_pass_buffers, row_pass_bytes,
-                                                     slot_size, three_path_stripe)
+from stereo_classic.matching._kernels.rowpass import (RowPassBuffers, StripePlan, path_slots, row_pass_buffers,
+                                                     row_pass_bytes, slot_size, three_path_stripe)
 from stereo_classic.matching._kernels.tags import disparity_tag
 from stereo_classic.matching._kernels.texture import texture_table, weak_texture_rows
 from stereo_classic.matching._kernels.workers import run_chained, run_stripes, run_tasks, usable_cpus
@@ -127,13 +126,9 @@ def workers_for(threads: int, n_stripes: int) -> int:
 
 
 def _thread_buffers(H: int, W: int, D: int) -> ThreadBuffers:
-    E = D + 2
     paths, minima = [], []
     for n in (2, W + H + 1, W + 2 * H + 1, W + 2):  # slots of the H, V, A and B directions
-        P = aligned_zeros((n, E), np.int16, lead=1)
-        P[:, 0] = _SENTINEL
-        P[:, E - 1] = _SENTINEL
-        paths.append(P.reshape(-1))
+        paths.append(path_slots(n, D, D + 2))
         minima.append(np.zeros(n, np.int16))
     return ThreadBuffers(
         *paths, *minima, crow=aligned_empty(W * D, np.int16), sums=aligned_zeros(W * D, np.int16),

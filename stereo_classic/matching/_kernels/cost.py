@@ -24,8 +24,8 @@ import numpy as np
 from numba import njit
 from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
-from stereo_classic.matching._kernels.features import (FEATURE_QUANT, FEATURE_SCALE, FEATURES, feature_row_cost,
-                                                       reverse_code_row)
+from stereo_classic.matching._kernels.features import (FEATURE_QUANT, FEATURE_SCALE, FEATURES, _clamp,
+                                                       feature_row_cost, reverse_code_row)
 from stereo_classic.matching._kernels.intrinsics import (
     absdiff16,
     add16,
@@ -272,11 +272,6 @@ class NoAliasCompiler(CompilerBase):
 
 
 _U = np.uint64  # unsigned indices: numba adds no negative-index wraparound, LLVM emits plain vector loads
-
-
-@njit(cache=True, nogil=True)
-def _clamp(i, n):  # pragma: no cover - numba
-    return 0 if i < 0 else (n - 1 if i >= n else i)
 
 
 class RowCostBuffers(NamedTuple):

@@ -37,7 +37,8 @@ from stereo_classic.matching._kernels.intrinsics import add16, min16
 from stereo_classic.matching._kernels.select import right_view_row, select_row
 from stereo_classic.matching._kernels.tags import disparity_tag, tag_disparities
 
-__all__ = ["RowPassBuffers", "StripePlan", "three_path_stripe", "row_pass_buffers", "row_pass_bytes", "slot_size"]
+__all__ = ["RowPassBuffers", "StripePlan", "three_path_stripe", "path_slots", "row_pass_buffers", "row_pass_bytes",
+           "slot_size"]
 
 _INT16_MAX = 32767
 #: int16 elements per 64-byte cache line: a path slot's size is a whole number of them (``slot_size``).
@@ -149,10 +150,10 @@ def slot_size(D):  # pragma: no cover - numba
     return -(-(D + 2) // _SLOT_ALIGN) * _SLOT_ALIGN
 
 
-def _path_slots(n: int, D: int) -> np.ndarray:
-    """``n`` path-vector slots of ``slot_size(D)``, flat: zeros (the path start) between a sentinel either side,
-    element 1 (slot 0's first disparity) on a cache line."""
-    P = aligned_zeros((n, slot_size(D)), np.int16, lead=1)
+def path_slots(n: int, D: int, width: int | None = None) -> np.ndarray:
+    """``n`` path-vector slots of ``width`` values (default ``slot_size(D)``; the 4/8-path kernel's are D + 2), flat:
+    zeros (the path start) between a sentinel either side, element 1 (slot 0's first disparity) on a cache line."""
+    P = aligned_zeros((n, slot_size(D) if width is None else width), np.int16, lead=1)
     P[:, 0] = P[:, D + 1] = _SENTINEL
     return P.reshape(-1)
 
@@ -162,8 +163,8 @@ def row_pass_buffers(H: int, W: int, D: int, warm_rows: int = 0) -> RowPassBuffe
     slots = W + H + 1
     return RowPassBuffers(
         costs=aligned_empty((warm_rows + 2, W * D), np.int16), srow=aligned_empty((2, W * D), np.int16),
-        path_v=_path_slots(slots, D), min_v=np.zeros(slots, np.int16), path_h=_path_slots(2, D),
-        min_h=np.zeros(2, np.int16), path_r=_path_slots(2, D), min_r=np.zeros(2, np.int16),
+        path_v=path_slots(slots, D), min_v=np.zeros(slots, np.int16), path_h=path_slots(2, D),
+        min_h=np.zeros(2, np.int16), path_r=path_slots(2, D), min_r=np.zeros(2, np.int16),
         row_min=aligned_empty(W, np.int16), k_index=np.arange(D, dtype=np.int16),
         right_sums=aligned_empty(W + D - 1, np.int16), right_k=aligned_empty(W + D - 1, np.int16),
         best=np.empty(W, np.int64), counts=np.zeros(3, np.int64),
