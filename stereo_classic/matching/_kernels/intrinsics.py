@@ -12,7 +12,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["add16", "sub16", "min16", "max16", "absdiff16", "and16", "shr16", "lshr16", "mulshr16", "mulhi16", "mullo16",
+__all__ = ["add16", "sub16", "min16", "umin16", "max16", "absdiff16", "and16", "shr16", "lshr16", "mulshr16", "mulhi16", "mullo16",
            "popxor16", "pick16", "eq16", "eq_mask32", "cttz64", "MASK_LANES"]
 
 
@@ -52,6 +52,20 @@ def min16(typingctx, a, b):
     def codegen(context, builder, signature, args):
         a, b = args
         return builder.select(builder.icmp_signed("<", a, b), a, b)
+
+    return types.int16(types.int16, types.int16), codegen
+
+
+@intrinsic
+def umin16(typingctx, a, b):
+    """``min(a, b)`` for int16 values read as unsigned: the same as ``min16`` where both are non-negative. A minimum
+    over a vector of non-negative values (path values and their sums) taken with it compiles to ``vpminuw`` and one
+    ``vphminposuw`` on x86; the signed minimum needs a sign flip before and after the latter."""
+    _check_int16(a, b)
+
+    def codegen(context, builder, signature, args):
+        a, b = args
+        return builder.select(builder.icmp_unsigned("<", a, b), a, b)
 
     return types.int16(types.int16, types.int16), codegen
 

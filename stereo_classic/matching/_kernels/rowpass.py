@@ -33,14 +33,13 @@ from stereo_classic.matching._kernels.cost import (
     pixel_penalties,
     row_cost,
 )
-from stereo_classic.matching._kernels.intrinsics import add16, min16
+from stereo_classic.matching._kernels.intrinsics import add16, umin16
 from stereo_classic.matching._kernels.select import right_view_row, select_row
 from stereo_classic.matching._kernels.tags import disparity_tag, tag_disparities
 
 __all__ = ["RowPassBuffers", "StripePlan", "three_path_stripe", "path_slots", "row_pass_buffers", "row_pass_bytes",
            "slot_size"]
 
-_INT16_MAX = 32767
 #: int16 elements per 64-byte cache line: a path slot's size is a whole number of them (``slot_size``).
 _SLOT_ALIGN = 32
 _U = np.uint64  # unsigned flat indices: no wraparound code, contiguous vector loads
@@ -226,7 +225,7 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     Sf = out.sums
     D = tag_disparities(bufs.tag)  # len(bufs.k_index), as a constant: compiled once per D
     E = slot_size(D)
-    big = np.int16(_INT16_MAX)
+    top = np.int16(-1)  # 65535 read as unsigned: where the vectors' minima (umin16, non-negative values) start
     zero = np.int16(0)
     n_rows = plan.n_rows
     cached = plan.cached
@@ -268,15 +267,15 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
                 qh = add16(mh, _p2_at(limg, yp, x, yp, x + 1, p1, p2, adaptive) if adaptive else p2)
                 wh = whs * E
                 rh = rhs * E
-                nh = big
-                ns = big
+                nh = top
+                ns = top
                 for k in range(D):
                     vh = _lr(PR, rh, crow_p[_U(cb + k)], mh, qh, p1, k)
                     PR[_U(wh + 1 + k)] = vh
-                    nh = min16(nh, vh)
+                    nh = umin16(nh, vh)
                     sm = add16(vh, srow_p[_U(cb + k)])
                     srow_p[_U(cb + k)] = sm
-                    ns = min16(ns, sm)
+                    ns = umin16(ns, sm)
                 MR[whs] = nh
                 nsrow[x] = ns
             if cur:  # --- row r, left to right: the top path (slot w = x - r + n_rows, predecessor at w + 1), left
@@ -289,12 +288,12 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
                 rvb = wv + E
                 mv = MV[wvs + 1]
                 qv = add16(mv, _p2_at(limg, y, x, y - 1, x, p1v, p2, adaptive) if adaptive else p2)
-                nv = big
+                nv = top
                 if warming:
                     for k in range(D):
                         vv = _lr(PV, rvb, crow[_U(cb + k)], mv, qv, p1v, k)
                         PV[_U(wv + 1 + k)] = vv
-                        nv = min16(nv, vv)
+                        nv = umin16(nv, vv)
                 else:
                     rhs = x & 1
                     whs = 1 - rhs
@@ -302,15 +301,15 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
                     qh = add16(mh, _p2_at(limg, y, x, y, x - 1, p1, p2, adaptive) if adaptive else p2)
                     wh = whs * E
                     rh = rhs * E
-                    nh = big
+                    nh = top
                     for k in range(D):
                         c = crow[_U(cb + k)]
                         vv = _lr(PV, rvb, c, mv, qv, p1v, k)
                         vh = _lr(PH, rh, c, mh, qh, p1, k)
                         PV[_U(wv + 1 + k)] = vv
                         PH[_U(wh + 1 + k)] = vh
-                        nv = min16(nv, vv)
-                        nh = min16(nh, vh)
+                        nv = umin16(nv, vv)
+                        nh = umin16(nh, vh)
                         srow[_U(cb + k)] = add16(vv, vh)
                     MH[whs] = nh
                 MV[wvs] = nv

@@ -124,6 +124,32 @@ def test_mullo16_is_the_product_modulo_2_16_shifted():
         np.testing.assert_array_equal(out, expect)
 
 
+def test_umin16_minimum_equals_the_signed_one_on_non_negative_values():
+    """``intrinsics.umin16``, the one-sweep kernel's minimum over a path vector (from 65535 read as unsigned, -1): the
+    signed minimum wherever the values are non-negative (path values and sums are: costs are clipped at 0, and a
+    path value is its cost plus a non-negative penalty term), in a reduction loop numba vectorises as the kernel's;
+    a negative value reads as above 32767 and is skipped (the reason the kernel may use it only there)."""
+    from numba import njit
+
+    from stereo_classic.matching._kernels.intrinsics import umin16
+
+    @njit(cache=False)
+    def smallest(a):  # pragma: no cover - numba
+        m = np.int16(-1)
+        for i in range(a.shape[0]):
+            m = umin16(m, a[i])
+        return m
+
+    rng = np.random.default_rng(6)
+    for n in (1, 31, 64, 128, 4099):
+        a = rng.integers(0, 32768, n).astype(np.int16)
+        assert smallest(a) == a.min()
+        a[n // 2] = 0
+        assert smallest(a) == 0
+    b = np.array([5, -3, 7] * 30, np.int16)
+    assert smallest(b) == 5  # -3 is 65533 unsigned
+
+
 def test_census_is_invariant_to_gain_and_offset():
     left, _ = _pair(4)
     bright = np.clip(left.astype(np.float64) * 1.3 + 20, 0, 255).astype(np.uint8)
