@@ -25,6 +25,7 @@ from stereo_classic.matching.border import confirm_left_border, left_border_colu
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching.params import SGMParams
 from stereo_classic.matching.postprocess import (
+    StripeLabels,
     _speckle_and_fill,
     fill_bytes,
     median_bytes,
@@ -354,6 +355,27 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         gray_left, gray_right, normalisation=params.feature_input, threads=params.effective_threads)
     t_features = time.perf_counter()
 
+    reach = _reach(gray_left.shape[1], params)
+    short = _short_reach(reach, params)
+    # winners lie in the range, subpixel within 0.5 px of one
+    bound = max(abs(params.min_disparity), abs(params.min_disparity + params.num_disparities)) + 1.0
+    stripe_counts: list[tuple[int, int]] = []
+    labelled = None
+    if params.speckle_size > 0 and params.fill_holes and not params.border_check and StripeLabels.fits(bound):
+        # the speckle filter's labels made stripe by stripe as the matcher finishes them (by a worker that would
+        # otherwise wait for the last stripes), each stripe's unknown pixels counted and its short-reach border
+        # pixels set unknown first (below, the same on the whole map when this does not apply)
+        labelled = StripeLabels(gray_left.shape, params.speckle_range, bound, workspace)
+
+        def on_rows(disp: np.ndarray, y0: int, y1: int) -> None:
+            band = disp[y0:y1]
+            unknown = int(np.count_nonzero(np.isnan(band)))
+            cut = int(np.count_nonzero(np.isfinite(band[:, short]))) if short.any() else 0
+            if cut:
+                band[:, short] = np.nan
+            stripe_counts.append((unknown, cut))
+            labelled.label(disp, y0, y1)
+
     disparity, disparity_right, core_timings = kernels.sgm_match(
         gray_left, gray_right, cost="features" if params.learned else params.cost,
         features=features, feature_similarity=params.feature_similarity, min_disparity=params.min_disparity,
@@ -365,16 +387,19 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         uniqueness=params.uniqueness / 100.0, lr_check=params.lr_check, subpixel=params.subpixel,
         threads=params.effective_threads,
         lr_mode=params.lr_mode, return_right=params.right_view, workspace=workspace,
-        scratch_output=params.speckle_size > 0 or params.fill_holes)  # post-processing makes a new map of it
+        scratch_output=params.speckle_size > 0 or params.fill_holes,  # post-processing makes a new map of it
+        on_rows=on_rows if labelled is not None else None)
     t2 = time.perf_counter()
 
     disparity = np.asarray(disparity, dtype=np.float32)
-    unknown_matcher = int(np.count_nonzero(np.isnan(disparity)))
-    reach = _reach(disparity.shape[1], params)
-    short = _short_reach(reach, params)
-    short_range = 0
     t_border = time.perf_counter()
-    if short.any():  # border pixels that could search too little of the range: not a measurement
+    if labelled is not None:
+        unknown_matcher = sum(u for u, _ in stripe_counts)
+        short_range = sum(c for _, c in stripe_counts)
+    else:
+        unknown_matcher = int(np.count_nonzero(np.isnan(disparity)))
+        short_range = 0
+    if short.any() and labelled is None:  # border pixels that could search too little of the range: not a measurement
         short_range = int(np.count_nonzero(np.isfinite(disparity[:, short])))
         disparity = disparity.copy() if not disparity.flags.writeable else disparity
         columns = left_border_columns(short) if params.border_check and params.lr_check is not None else 0
@@ -390,8 +415,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     threads = params.effective_threads
     disparity, filled_mask, valid_after_speckle, filled = _speckle_and_fill(
         disparity, max_size=params.speckle_size, max_diff=params.speckle_range, fill=params.fill_holes,
-        threads=threads, workspace=workspace,  # winners lie in the range, subpixel within 0.5 px of one
-        bound=max(abs(params.min_disparity), abs(params.min_disparity + params.num_disparities)) + 1.0)
+        threads=threads, workspace=workspace, bound=bound, labelled=labelled)
     if params.median_filter:  # the measured pixels only: the fill above read them as the checks left them
         disparity = median_measured(disparity, filled_mask, threads=threads, workspace=workspace)
     border = reach < params.num_disparities  # the full range does not fit: matched with the range that does

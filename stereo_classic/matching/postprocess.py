@@ -81,23 +81,73 @@ def _check_speckle_args(disparity: np.ndarray, max_size: int, max_diff: float, t
     return np.ascontiguousarray(disp)
 
 
+def _speckle_scale(lo: float, hi: float, max_diff: float) -> tuple[np.float32, int]:
+    """(scale, scaled max_diff) of the speckle filter's int16 copy of a map whose finite values lie in [lo, hi]."""
+    magnitude = max(abs(float(lo)), abs(float(hi)))
+    scale = np.float32(16.0 if magnitude * 16.0 <= _I16_LIMIT else _I16_LIMIT / magnitude)
+    return scale, int(round(max_diff * float(scale)))
+
+
+def _label_arrays(shape: tuple[int, int], empty) -> tuple[np.ndarray, ...]:
+    """The labelling's arrays (scaled copy, labels, union-find parents, sizes) from the allocator ``empty``."""
+    size = shape[0] * shape[1]
+    return (empty("speckle_scaled", shape, np.int16), empty("speckle_labels", shape, np.int32),
+            empty("speckle_parent", (size,), np.int32), empty("speckle_sizes", (size,), np.int32))
+
+
 def _label_regions(disp: np.ndarray, lo: float, hi: float, max_diff: float, n_workers: int, empty
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The speckle filter's regions of ``disp`` (finite values in [lo, hi]): labels, union-find parents and
     sizes, labelled stripe by stripe on ``n_workers`` workers and joined across the stripes' borders."""
     bands = _kernels.stripes(disp.shape[0])
-    magnitude = max(abs(float(lo)), abs(float(hi)))
-    scale = np.float32(16.0 if magnitude * 16.0 <= _I16_LIMIT else _I16_LIMIT / magnitude)
-    max_diff_scaled = int(round(max_diff * float(scale)))
-    scaled = empty("speckle_scaled", disp.shape, np.int16)
-    labels = empty("speckle_labels", disp.shape, np.int32)
-    parent = empty("speckle_parent", (disp.size,), np.int32)
-    sizes = empty("speckle_sizes", (disp.size,), np.int32)
+    scale, max_diff_scaled = _speckle_scale(lo, hi, max_diff)
+    scaled, labels, parent, sizes = _label_arrays(disp.shape, empty)
     _kernels.run_stripes(bands, n_workers, lambda t, y0, y1: _speckle.label_stripe(
         disp, scale, max_diff_scaled, y0, y1, scaled, labels, parent, sizes))
     _speckle.join_stripes(np.array([y0 for y0, _ in bands[1:]], np.int64), max_diff_scaled, scaled, labels,
                           parent, sizes)
     return labels, parent, sizes
+
+
+class StripeLabels:
+    """The speckle filter's regions labelled stripe by stripe while the matcher makes the map (``label`` is its
+    ``sgm_match(on_rows=...)``), for ``_speckle_fill_counted(..., labelled=...)``, which joins them: the labels of
+    ``_label_regions`` on the finished map (tested). For maps whose values lie within ``bound`` pixels of 0 with
+    ``bound * 16 <= _I16_LIMIT`` (``fits``): the scale is then 16 whatever the values are."""
+
+    def __init__(self, shape: tuple[int, int], max_diff: float, bound: float, workspace: Workspace | None = None):
+        if not self.fits(bound):
+            raise ValueError(f"`bound` must be between 0 and {_I16_LIMIT / 16.0:g} pixels, got {bound!r}")
+        self.shape = tuple(shape)
+        self.bound = float(bound)
+        self.scale, self.max_diff_scaled = _speckle_scale(-bound, bound, max_diff)
+        self.arrays = _label_arrays(self.shape, _kernels.scratch_allocator(workspace))
+        self.disparity: np.ndarray | None = None
+        self._done = np.zeros(shape[0], np.bool_)
+
+    @staticmethod
+    def fits(bound: float) -> bool:
+        return 0 <= bound and bound * 16.0 <= _I16_LIMIT
+
+    def label(self, disparity: np.ndarray, y0: int, y1: int) -> None:
+        """Label rows [y0, y1) of ``disparity`` (one stripe of ``core.stripes``; every call of one instance on the
+        same map)."""
+        if self.disparity is None:
+            self.disparity = disparity
+        if disparity is not self.disparity or disparity.shape != self.shape:
+            raise ValueError("`disparity` must be the one map the labels are made of")
+        _speckle.label_stripe(disparity, self.scale, self.max_diff_scaled, y0, y1, *self.arrays)
+        self._done[y0:y1] = True
+
+    def joined(self, disparity: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(labels, parents, sizes) of ``disparity`` once every stripe is labelled, joined across the stripes."""
+        if disparity is not self.disparity or not self._done.all():
+            raise ValueError("the labels are not those of `disparity`: a stripe was not labelled, or another map")
+        bands = _kernels.stripes(self.shape[0])
+        scaled, labels, parent, sizes = self.arrays
+        _speckle.join_stripes(np.array([y0 for y0, _ in bands[1:]], np.int64), self.max_diff_scaled, scaled, labels,
+                              parent, sizes)
+        return labels, parent, sizes
 
 
 def _filter_speckles_counted(disparity: np.ndarray, *, max_size: int, max_diff: float, threads: int = 1,
@@ -119,8 +169,8 @@ def _filter_speckles_counted(disparity: np.ndarray, *, max_size: int, max_diff: 
 
 
 def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: float, threads: int = 1,
-                          workspace: Workspace | None = None, bound: float | None = None
-                          ) -> tuple[np.ndarray, np.ndarray, int, int]:
+                          workspace: Workspace | None = None, bound: float | None = None,
+                          labelled: StripeLabels | None = None) -> tuple[np.ndarray, np.ndarray, int, int]:
     """``fill_holes_marked(filter_speckles(disparity, ...))`` in one pass after the labelling
     (``_speckle.apply_and_fill_stripe``: the filtered map, the row fill and the median are never stored whole),
     and how many pixels the filter kept and the fill filled: ``(out, holes, kept, filled)``. The same numbers
@@ -128,8 +178,12 @@ def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: flo
     map's values can have (the matcher's from its range); when it keeps the filter's scale at 16, the serial
     scan of the map for its range is skipped (the scale is 16 either way). Without the scan a map whose every
     value is infinite comes out NaN where the two steps return it as given: the matcher's unknown pixels are NaN,
-    never infinite."""
+    never infinite. ``labelled``: the regions of ``disparity`` made while it was matched, with ``bound`` (``max_diff``
+    the same)."""
     disp = _check_speckle_args(disparity, max_size, max_diff, threads)
+    if labelled is not None and (disp is not labelled.disparity or bound != labelled.bound or max_size == 0):
+        raise ValueError("`labelled` must hold the labels of `disparity` made with the same `bound`, and "
+                         "`max_size` > 0")
     if bound is not None and max_size > 0 and 0 <= bound and bound * 16.0 <= _I16_LIMIT:
         lo, hi, n_valid = -float(bound), float(bound), -1  # n_valid unknown: a map without any is fine below
     else:
@@ -141,7 +195,10 @@ def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: flo
     bands = _kernels.stripes(disp.shape[0])
     n_workers = _kernels.workers_for(threads, len(bands))
     empty = _kernels.scratch_allocator(workspace)
-    labels, parent, sizes = _label_regions(disp, lo, hi, max_diff, n_workers, empty)
+    if labelled is not None:
+        labels, parent, sizes = labelled.joined(disp)
+    else:
+        labels, parent, sizes = _label_regions(disp, lo, hi, max_diff, n_workers, empty)
     W = disp.shape[1]
     scratch = [(empty(f"fill_rows_{t}", (3, W), np.float32), empty(f"fill_kept_{t}", (3, W), np.uint8),
                 empty(f"fill_columns_{t}", (3, W + 2), np.float32)) for t in range(n_workers)]
@@ -153,14 +210,16 @@ def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: flo
 
 
 def _speckle_and_fill(disparity: np.ndarray, *, max_size: int, max_diff: float, fill: bool, threads: int = 1,
-                      workspace: Workspace | None = None, bound: float | None = None
-                      ) -> tuple[np.ndarray, np.ndarray | None, int, int]:
+                      workspace: Workspace | None = None, bound: float | None = None,
+                      labelled: StripeLabels | None = None) -> tuple[np.ndarray, np.ndarray | None, int, int]:
     """The matcher's post-processing: the speckle filter (``max_size`` > 0) and the hole fill (``fill``), in one
-    pass when both are on (``bound`` as for ``_speckle_fill_counted``). Returns (map, filled-pixel mask or None
-    without the fill, pixels known after the filter, pixels filled)."""
+    pass when both are on (``bound``, ``labelled`` as for ``_speckle_fill_counted``; only there). Returns (map,
+    filled-pixel mask or None without the fill, pixels known after the filter, pixels filled)."""
     if max_size > 0 and fill:
         return _speckle_fill_counted(disparity, max_size=max_size, max_diff=max_diff, threads=threads,
-                                     workspace=workspace, bound=bound)
+                                     workspace=workspace, bound=bound, labelled=labelled)
+    if labelled is not None:
+        raise ValueError("`labelled` needs both the speckle filter (`max_size` > 0) and the fill (`fill`)")
     if max_size > 0:
         disparity, known = _filter_speckles_counted(disparity, max_size=max_size, max_diff=max_diff, threads=threads,
                                                     workspace=workspace)

@@ -61,7 +61,8 @@ class DisparityMap:
         The parameters used.
     timings_ms : dict[str, float]
         Milliseconds per stage: "prepare" (checks + grey conversion), "features" (learned costs: the network), the
-        matcher's stages ("cost", "aggregate", "select", as reported by the kernels), "postprocess", "total".
+        matcher's stages ("cost", "aggregate", "select", as reported by the kernels; "aggregate" includes the speckle
+        filter's labelling when it is made stripe by stripe beside the matching), "postprocess", "total".
     validity : dict[str, int | None]
         Pixel counts: "pixels" (H * W), "valid" (known in ``filled_disparity``: measured + filled), "unknown_matcher"
         (NaN out of the matcher) = "no_candidate" (columns where no disparity of the range lands inside

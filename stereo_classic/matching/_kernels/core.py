@@ -346,7 +346,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
          path_mask, adaptive_p2, uniqueness, lr_check, subpixel, threads, select=True, keep_sums=False,
          workspace=None, return_right=False, lr_mode="full", scratch_output=False, weak_texture_gain=1.0,
          features=None, feature_similarity="dot", p1_cross=None, cross_texture=True, outside_cost=None,
-         feature_census=0.0):
+         feature_census=0.0, on_rows=None):
     if cost not in _KIND:
         raise ValueError(f"`cost` must be one of {sorted(_KIND)}, got {cost!r}")
     p1_cross = int(p1) if p1_cross is None else int(p1_cross)
@@ -440,8 +440,13 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
                           init_cost=True, keep_sums=bool(keep_sums), warmup=b - y1, scratch_row=H + t),
                  cbufs, kbufs, out)
 
+    def rows_done(t: int, i: int) -> None:
+        on_rows(disp, *bands[i])
+
     if one_sweep:
-        run_chained(len(bands), n_workers, sweep)
+        run_chained(len(bands), n_workers, sweep, follow=rows_done if on_rows is not None and select else None)
+    elif on_rows is not None and select:
+        run_stripes(bands, n_workers, lambda t, y0, y1: (stripe(t, y0, y1), on_rows(disp, y0, y1)))
     else:
         run_stripes(bands, n_workers, stripe)
     t2 = time.perf_counter()
@@ -481,7 +486,8 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
               lr_mode: str = "full", scratch_output: bool = False, weak_texture_gain: float = 1.0,
               features: tuple[np.ndarray, np.ndarray] | None = None, feature_similarity: str = "dot",
               p1_cross: int | None = None, cross_texture: bool = True, outside_cost: int | None = None,
-              feature_census: float = 0.0) -> tuple[np.ndarray, np.ndarray | None, dict[str, float]]:
+              feature_census: float = 0.0, on_rows: Callable[[np.ndarray, int, int], Any] | None = None
+              ) -> tuple[np.ndarray, np.ndarray | None, dict[str, float]]:
     """Semi-global matching of a rectified grey pair (inputs already validated by the caller).
 
     Parameters
@@ -515,6 +521,9 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
         (``learned.FeatureModel.features``), and "dot" or "l1" (``features.feature_cost_terms``: the cost units).
     feature_census : ``cost="features"``: the share (0 to 1) of the census cost (``census_window``) in the cost;
         0: the learned cost alone (``features.feature_row_cost``).
+    on_rows : called as ``on_rows(disparity, y0, y1)`` once for every stripe [y0, y1) of ``stripes(H)`` as soon as
+        its rows of the left map are final, by whichever worker is free (``run_chained``'s follow-ups); it may change
+        those rows. Its time counts in "aggregate" (the matcher labels the speckle filter's regions there).
 
     Returns
     -------
@@ -548,7 +557,7 @@ def sgm_match(left: np.ndarray, right: np.ndarray, *, cost: str = "census", min_
                                    weak_texture_gain=weak_texture_gain, features=features,
                                    feature_similarity=feature_similarity, p1_cross=p1_cross,
                                    cross_texture=cross_texture, outside_cost=outside_cost,
-                                   feature_census=feature_census)
+                                   feature_census=feature_census, on_rows=on_rows)
     return disp, dispR, timings
 
 

@@ -115,32 +115,70 @@ def run_tasks(tasks: list[Any], n_workers: int, fn: Callable[[int, Any], Any]) -
     return results
 
 
-def run_chained(n_items: int, n_workers: int, fn: Callable[[int, int, bool], Any]) -> None:
+def run_chained(n_items: int, n_workers: int, fn: Callable[[int, int, bool], Any],
+                follow: Callable[[int, int], Any] | None = None) -> None:
     """Call ``fn(t, i, after)`` for i in 0 .. n_items - 1 on ``n_workers`` workers, each worker going down a run of
     consecutive items: ``after`` says that worker ``t``'s previous call was item i - 1 (so it may reuse what that
     call left in the worker's buffers). Worker t starts at item ``t * n_items // n_workers``; when its next item is
     taken (or there is none) it takes the last free item. Which worker runs an item, and whether ``after`` is true,
-    must not change the result."""
+    must not change the result.
+
+    ``follow(t, i)``: a second step for item i, run once ``fn`` has done it, on whichever worker is free: a worker
+    whose run is broken does the follow-ups of finished items before it takes a free item out of turn, and waits
+    for them while others still run theirs (so the follow-ups fill the time a worker would idle while the last
+    items finish). One worker runs each item's follow-up right after it."""
     if n_workers <= 1:
         for i in range(n_items):
             fn(0, i, i > 0)
+            if follow is not None:
+                follow(0, i)
         return
     taken = [False] * n_items
-    lock = threading.Lock()
+    ready: list[int] = []  # items done by fn whose follow-up no worker has taken
+    state = {"left": n_items, "failed": False}  # items not yet done by fn; a worker raised
+    cond = threading.Condition()
     starts = [t * n_items // n_workers for t in range(n_workers)]
+
+    def next_job(nxt: int) -> tuple[str, int]:  # under cond
+        while True:
+            if state["failed"]:
+                return "stop", -1
+            if 0 <= nxt < n_items and not taken[nxt]:
+                taken[nxt] = True
+                return "item", nxt
+            if ready:
+                return "follow", ready.pop(0)
+            free = [i for i in range(n_items) if not taken[i]]
+            if free:
+                taken[free[-1]] = True
+                return "item", free[-1]
+            if follow is None or state["left"] == 0:
+                return "stop", -1
+            cond.wait()
 
     def work(t: int) -> None:
         prev = -2
         nxt = starts[t]
-        while True:
-            with lock:
-                if not (0 <= nxt < n_items and not taken[nxt]):
-                    free = [i for i in range(n_items) if not taken[i]]
-                    if not free:
-                        return
-                    nxt = free[-1]
-                taken[nxt] = True
-            fn(t, nxt, nxt == prev + 1)
-            prev, nxt = nxt, nxt + 1
+        try:
+            while True:
+                with cond:
+                    kind, i = next_job(nxt)
+                if kind == "stop":
+                    return
+                if kind == "follow":
+                    follow(t, i)
+                    continue
+                fn(t, i, i == prev + 1)
+                with cond:
+                    state["left"] -= 1
+                    if follow is not None:
+                        ready.append(i)
+                    cond.notify_all()
+                prev, nxt = i, i + 1
+        except BaseException:
+            with cond:
+                state["failed"] = True
+                cond.notify_all()
+            raise
 
     _on_workers(n_workers, work)

@@ -774,14 +774,14 @@ def test_warm_up_costs_reused_down_a_run_of_stripes_change_nothing(cost, monkeyp
     chained = core.run_chained
     calls = []
 
-    def counting(n, workers, fn):
-        chained(n, workers, lambda t, i, after: (calls.append(after), fn(t, i, after)))
+    def counting(n, workers, fn, **kw):
+        chained(n, workers, lambda t, i, after: (calls.append(after), fn(t, i, after)), **kw)
 
     monkeypatch.setattr(core, "run_chained", counting)
     runs = [core.sgm_match(left, right, threads=threads, **kw) for threads in (1, 2, 3, 5, 8)]
     assert sum(calls) >= 7  # the 1-thread call alone reuses the costs at every border
     monkeypatch.setattr(core, "run_chained",
-                        lambda n, workers, fn: chained(n, workers, lambda t, i, after: fn(t, i, False)))
+                        lambda n, workers, fn, **kw: chained(n, workers, lambda t, i, after: fn(t, i, False), **kw))
     fresh = core.sgm_match(left, right, threads=1, **kw)
     for d, dr, t in runs:
         np.testing.assert_array_equal(d, fresh[0])
@@ -801,6 +801,56 @@ def test_run_chained_runs_every_item_once_down_runs():
         for t, i, after in seen:  # after is true exactly when the same worker's previous item was i - 1
             assert after == (last.get(t) == i - 1)
             last[t] = i
+
+
+def test_run_chained_follows_every_item_once_after_it():
+    """``follow(t, i)`` runs once per item, after ``fn`` has done it (one worker: right after it), on any worker."""
+    import threading
+
+    lock = threading.Lock()
+    for workers in (1, 2, 3, 8):
+        events: list[tuple[str, int]] = []
+
+        def log(kind, i):
+            with lock:
+                events.append((kind, i))
+
+        core.run_chained(11, workers, lambda t, i, after: log("item", i), follow=lambda t, i: log("follow", i))
+        assert sorted(i for kind, i in events if kind == "follow") == list(range(11))
+        for i in range(11):
+            assert events.index(("item", i)) < events.index(("follow", i))
+        if workers == 1:
+            assert events == [(kind, i) for i in range(11) for kind in ("item", "follow")]
+
+
+@pytest.mark.parametrize("where", ["item", "follow"])
+def test_run_chained_raises_an_error_of_any_worker_without_hanging(where):
+    """A worker's error reaches the caller and the other workers stop (none waits for follow-ups that never come)."""
+    import threading
+    import time
+
+    def item(t, i, after):
+        if where == "item" and i == 7:
+            raise RuntimeError("item 7")
+        time.sleep(0.002)
+
+    def follow(t, i):
+        if where == "follow" and i == 2:
+            raise RuntimeError("follow 2")
+
+    for workers in (1, 2, 4):
+        caught: list[str] = []
+
+        def run():
+            try:
+                core.run_chained(11, workers, item, follow=follow)
+            except RuntimeError as err:
+                caught.append(str(err))
+
+        runner = threading.Thread(target=run, daemon=True)
+        runner.start()
+        runner.join(20)
+        assert not runner.is_alive() and caught == ["item 7" if where == "item" else "follow 2"]
 
 
 @pytest.mark.parametrize("threads", [1, 3])

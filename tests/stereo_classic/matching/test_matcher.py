@@ -661,3 +661,33 @@ def test_property_well_formed_or_named_error(case):
     assert ((finite >= p.min_disparity - 1) & (finite <= p.max_disparity + 1)).all()
     assert dmap.validity["valid"] == np.count_nonzero(np.isfinite(dmap.filled_disparity))
     assert finite.size == dmap.validity["valid"] - (0 if dmap.filled is None else np.count_nonzero(dmap.filled))
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+@pytest.mark.parametrize("paths", [3, 8])
+def test_speckle_labels_made_while_matching_change_nothing(monkeypatch, threads, paths):
+    """The matcher labels the speckle filter's regions stripe by stripe as the kernels finish them (and counts the
+    unknown and short-reach pixels there): the same result, every count included, as the labelling of the finished
+    map, for any thread count; ``sgm_match`` calls it once for every stripe."""
+    monkeypatch.setattr(kernels, "usable_cpus", lambda: 8)
+    tex = _texture((230, 150), seed=3)
+    d_true = np.fromfunction(lambda y, x: 6 + 5 * (x > 75) + y / 60.0, tex.shape).astype(np.float32)
+    left = np.round(tex).astype(np.uint8)
+    right = np.round(_warp_right(tex, d_true)).astype(np.uint8)
+    right[100:140, 20:60] = 255  # a blank patch: unknown pixels and small regions for the filter
+    params = SGMParams(num_disparities=32, threads=threads, paths=paths, speckle_size=60)
+    assert len(kernels.stripes(left.shape[0])) >= 4
+    calls = []
+    label = matcher_mod.StripeLabels.label
+    monkeypatch.setattr(matcher_mod.StripeLabels, "label", lambda self, d, y0, y1: (calls.append((y0, y1)),
+                                                                                     label(self, d, y0, y1)))
+    fused = compute_disparity(left, right, params)
+    assert sorted(calls) == kernels.stripes(left.shape[0])
+    monkeypatch.setattr(matcher_mod.StripeLabels, "fits", staticmethod(lambda bound: False))
+    after = compute_disparity(left, right, params)
+    assert len(calls) == len(kernels.stripes(left.shape[0]))  # the second call did not label while matching
+    for name in ("disparity", "filled_disparity", "filled", "disparity_right"):
+        np.testing.assert_array_equal(getattr(fused, name), getattr(after, name))
+    assert fused.validity == after.validity
+    assert fused.validity["short_range"] > 0 and fused.validity["unknown_matcher"] > 0
+    assert fused.validity["speckle_removed"] > 0 and fused.validity["filled"] > 0

@@ -8,7 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from stereo_classic.matching.postprocess import fill_holes, fill_holes_marked, filter_speckles
+from stereo_classic.matching._kernels import core as _kernels
+from stereo_classic.matching.postprocess import StripeLabels, fill_holes, fill_holes_marked, filter_speckles
 
 
 # --------------------------------------------------------------------------------------------------
@@ -212,6 +213,43 @@ def test_speckle_filter_and_fill_in_one_pass_equal_the_two_steps(threads):
             np.testing.assert_array_equal(again[0], out)
             np.testing.assert_array_equal(again[1], holes)
             assert again[2:] == (kept, filled)
+            if size == 0:
+                continue
+            # the matcher's labels made stripe by stripe, in any order, as it finishes them (``StripeLabels``)
+            labelled = StripeLabels(d.shape, 1.0, bound)
+            for j in rng.permutation(len(_kernels.stripes(h))):
+                labelled.label(d, *_kernels.stripes(h)[j])
+            fused = _speckle_fill_counted(d, max_size=size, max_diff=1.0, threads=threads, bound=bound,
+                                          labelled=labelled)
+            np.testing.assert_array_equal(fused[0], out)
+            np.testing.assert_array_equal(fused[1], holes)
+            assert fused[2:] == (kept, filled)
+
+
+def test_stripe_labels_refuse_what_they_were_not_made_of():
+    from stereo_classic.matching.postprocess import _speckle_and_fill, _speckle_fill_counted
+
+    d = np.full((120, 30), 5.0, np.float32)
+    bands = _kernels.stripes(120)
+    assert len(bands) >= 2 and not StripeLabels.fits(5000.0) and StripeLabels.fits(6.0)
+    with pytest.raises(ValueError, match="bound"):
+        StripeLabels(d.shape, 1.0, 5000.0)
+    labelled = StripeLabels(d.shape, 1.0, 6.0)
+    for band in bands[1:]:
+        labelled.label(d, *band)
+    with pytest.raises(ValueError, match="not labelled"):  # the first stripe is missing
+        _speckle_fill_counted(d, max_size=10, max_diff=1.0, bound=6.0, labelled=labelled)
+    with pytest.raises(ValueError, match="one map"):
+        labelled.label(d.copy(), *bands[0])
+    labelled.label(d, *bands[0])
+    with pytest.raises(ValueError, match="same `bound`"):
+        _speckle_fill_counted(d, max_size=10, max_diff=1.0, bound=7.0, labelled=labelled)
+    with pytest.raises(ValueError, match="same `bound`"):
+        _speckle_fill_counted(d.copy(), max_size=10, max_diff=1.0, bound=6.0, labelled=labelled)
+    with pytest.raises(ValueError, match="needs both"):
+        _speckle_and_fill(d, max_size=10, max_diff=1.0, fill=False, bound=6.0, labelled=labelled)
+    out = _speckle_fill_counted(d, max_size=10, max_diff=1.0, bound=6.0, labelled=labelled)
+    np.testing.assert_array_equal(out[0], d)
 
 
 def test_postprocess_stays_within_its_memory_estimate():
