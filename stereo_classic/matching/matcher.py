@@ -413,11 +413,12 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     t_border_end = time.perf_counter()
     valid_before = disparity.size - unknown_matcher - short_range
     threads = params.effective_threads
-    disparity, filled_mask, valid_after_speckle, filled = _speckle_and_fill(
+    disparity, filled_mask, valid_after_speckle, filled, measured = _speckle_and_fill(
         disparity, max_size=params.speckle_size, max_diff=params.speckle_range, fill=params.fill_holes,
         threads=threads, workspace=workspace, bound=bound, labelled=labelled)
     if params.median_filter:  # the measured pixels only: the fill above read them as the checks left them
         disparity = median_measured(disparity, filled_mask, threads=threads, workspace=workspace)
+        measured = None
     border = reach < params.num_disparities  # the full range does not fit: matched with the range that does
     t3 = time.perf_counter()
 
@@ -446,6 +447,10 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     }
     if disparity_right is not None:
         disparity_right = np.asarray(disparity_right, dtype=np.float32)
+    if measured is not None:  # the one pass made the measured map beside the filled one
+        return DisparityMap._of_one_pass(disparity, filled_mask, measured, valid_after_speckle, filled,
+                                         disparity_right=disparity_right, params=params, timings_ms=timings,
+                                         validity=validity, left_gray=np.array(gray_left, dtype=np.uint8, copy=True))
     return DisparityMap(disparity=disparity, disparity_right=disparity_right, params=params,
                         timings_ms=timings, validity=validity, filled=filled_mask,
                         left_gray=np.array(gray_left, dtype=np.uint8, copy=True))  # for ``confidence``

@@ -170,11 +170,13 @@ def _filter_speckles_counted(disparity: np.ndarray, *, max_size: int, max_diff: 
 
 def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: float, threads: int = 1,
                           workspace: Workspace | None = None, bound: float | None = None,
-                          labelled: StripeLabels | None = None) -> tuple[np.ndarray, np.ndarray, int, int]:
+                          labelled: StripeLabels | None = None
+                          ) -> tuple[np.ndarray, np.ndarray, int, int, np.ndarray | None]:
     """``fill_holes_marked(filter_speckles(disparity, ...))`` in one pass after the labelling
     (``_speckle.apply_and_fill_stripe``: the filtered map, the row fill and the median are never stored whole),
-    and how many pixels the filter kept and the fill filled: ``(out, holes, kept, filled)``. The same numbers
-    as the two steps one after the other (tested), for any thread count. ``bound``: the largest magnitude the
+    and how many pixels the filter kept and the fill filled: ``(out, holes, kept, filled, measured)``, ``measured``
+    the filtered map (``out`` with NaN where ``holes``; None where ``max_size`` is 0 or nothing is known). The same
+    numbers as the two steps one after the other (tested), for any thread count. ``bound``: the largest magnitude the
     map's values can have (the matcher's from its range); when it keeps the filter's scale at 16, the serial
     scan of the map for its range is skipped (the scale is 16 either way). Without the scan a map whose every
     value is infinite comes out NaN where the two steps return it as given: the matcher's unknown pixels are NaN,
@@ -191,7 +193,7 @@ def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: flo
     if max_size == 0 or n_valid == 0:
         filtered, kept = _filter_speckles_counted(disp, max_size=max_size, max_diff=max_diff, threads=threads)
         out, holes, filled = _fill_holes_counted(filtered, threads=threads, n_valid=kept, workspace=workspace)
-        return out, holes, kept, filled
+        return out, holes, kept, filled, None
     bands = _kernels.stripes(disp.shape[0])
     n_workers = _kernels.workers_for(threads, len(bands))
     empty = _kernels.scratch_allocator(workspace)
@@ -204,17 +206,20 @@ def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: flo
                 empty(f"fill_columns_{t}", (3, W + 2), np.float32)) for t in range(n_workers)]
     out = np.empty_like(disp)
     holes = np.empty(disp.shape, np.bool_)
+    measured = np.empty_like(disp)
     counts = _kernels.run_stripes(bands, n_workers, lambda t, y0, y1: _speckle.apply_and_fill_stripe(
-        disp, int(max_size), y0, y1, labels, parent, sizes, out, holes, *scratch[t]))
-    return out, holes, int(sum(c[0] for c in counts)), int(sum(c[1] for c in counts))
+        disp, int(max_size), y0, y1, labels, parent, sizes, out, holes, measured, *scratch[t]))
+    return out, holes, int(sum(c[0] for c in counts)), int(sum(c[1] for c in counts)), measured
 
 
 def _speckle_and_fill(disparity: np.ndarray, *, max_size: int, max_diff: float, fill: bool, threads: int = 1,
                       workspace: Workspace | None = None, bound: float | None = None,
-                      labelled: StripeLabels | None = None) -> tuple[np.ndarray, np.ndarray | None, int, int]:
+                      labelled: StripeLabels | None = None
+                      ) -> tuple[np.ndarray, np.ndarray | None, int, int, np.ndarray | None]:
     """The matcher's post-processing: the speckle filter (``max_size`` > 0) and the hole fill (``fill``), in one
     pass when both are on (``bound``, ``labelled`` as for ``_speckle_fill_counted``; only there). Returns (map,
-    filled-pixel mask or None without the fill, pixels known after the filter, pixels filled)."""
+    filled-pixel mask or None without the fill, pixels known after the filter, pixels filled, the map with NaN
+    where filled when the one pass made it, else None)."""
     if max_size > 0 and fill:
         return _speckle_fill_counted(disparity, max_size=max_size, max_diff=max_diff, threads=threads,
                                      workspace=workspace, bound=bound, labelled=labelled)
@@ -226,9 +231,9 @@ def _speckle_and_fill(disparity: np.ndarray, *, max_size: int, max_diff: float, 
     else:
         known = int(np.count_nonzero(np.isfinite(disparity)))
     if not fill:
-        return disparity, None, known, 0
+        return disparity, None, known, 0, None
     out, holes, filled = _fill_holes_counted(disparity, threads=threads, n_valid=known, workspace=workspace)
-    return out, holes, known, filled
+    return out, holes, known, filled, None
 
 
 def _finite_range(disp: np.ndarray) -> tuple[float, float, int]:
@@ -254,8 +259,9 @@ def speckle_bytes(height: int, width: int) -> int:
 
 def speckle_fill_bytes(height: int, width: int) -> int:
     """Bytes the speckle filter and the hole fill allocate at most when run together (``_speckle_fill_counted``):
-    the filter's (``speckle_bytes``) and the filled-pixel mask; the fill's rows are per worker (3 rows)."""
-    return speckle_bytes(height, width) + height * width
+    the filter's (``speckle_bytes``), the filled-pixel mask and the measured map; the fill's rows are per worker (3
+    rows)."""
+    return speckle_bytes(height, width) + 5 * height * width
 
 
 def fill_bytes(height: int, width: int) -> int:

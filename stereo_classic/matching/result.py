@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -12,6 +13,8 @@ from numba import njit
 from stereo_classic.matching.params import SGMParams
 
 __all__ = ["DisparityMap"]
+
+_presplit = threading.local()  # DisparityMap._of_one_pass hands the one pass's maps and counts to __post_init__
 
 
 @njit(cache=True, nogil=True)
@@ -97,7 +100,10 @@ class DisparityMap:
         filled = self.filled
         fast = (isinstance(filled, np.ndarray) and filled.shape == disp.shape and filled.dtype == np.bool_
                 and disp.flags.c_contiguous and filled.flags.c_contiguous)  # the matcher's maps: one pass
-        if fast:
+        given = getattr(_presplit, "maps", None)
+        if fast and given is not None and given[0] is disp and given[1] is filled:  # made by the post-processing
+            measured, (n_valid, n_inf, n_bad, n_filled) = given[2], given[3]
+        elif fast:
             measured = np.empty_like(disp)
             n_valid, n_inf, n_bad, n_filled = _split_filled(disp, filled, measured)
         if (n_inf > 0) if fast else np.isinf(disp).any():
@@ -136,6 +142,21 @@ class DisparityMap:
                 measured = disp.copy()
                 measured[filled] = np.nan
             object.__setattr__(self, "disparity", measured)
+
+    @classmethod
+    def _of_one_pass(cls, filled_disparity: np.ndarray, filled: np.ndarray, measured: np.ndarray, kept: int,
+                     n_filled: int, **fields) -> DisparityMap:
+        """``DisparityMap(disparity=filled_disparity, filled=filled, **fields)`` for the matcher's post-processing in
+        one pass (``postprocess._speckle_fill_counted``), which made ``measured`` (NaN where ``filled``) and counted
+        the ``kept`` and ``n_filled`` pixels beside the filled map: the constructor takes them instead of its own pass
+        over the maps. What that pass checks holds by how the one pass makes them (kept pixels are finite values of
+        the speckle filter's regions, filled ones the minimum or median of such values, every filled pixel known);
+        every other check is made as always."""
+        _presplit.maps = (filled_disparity, filled, measured, (int(kept) + int(n_filled), 0, 0, int(n_filled)))
+        try:
+            return cls(disparity=filled_disparity, filled=filled, **fields)
+        finally:
+            _presplit.maps = None
 
     @property
     def filled_disparity(self) -> np.ndarray:

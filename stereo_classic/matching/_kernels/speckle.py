@@ -199,12 +199,13 @@ def _med3(a, b, c):  # pragma: no cover - numba
 
 
 @njit(cache=True, nogil=True)
-def apply_and_fill_stripe(disp, max_size, y0, y1, labels, parent, sizes, out, holes, rows, kept_rows, columns
-                          ):  # pragma: no cover - numba
+def apply_and_fill_stripe(disp, max_size, y0, y1, labels, parent, sizes, out, holes, measured, rows, kept_rows,
+                          columns):  # pragma: no cover - numba
     """Rows [y0, y1) of ``fill_holes_marked(filter_speckles(disp))``: the speckle filter (as ``apply_stripe``),
     then each unknown pixel takes the smaller of the nearest known values to its left and right in its row, and
     then the 3x3 median (borders replicated) of that row-filled map; where a row without any known pixel is
-    among the 3 rows, the row fill itself; in a row without any known pixel, NaN. ``holes`` = the pixels filled.
+    among the 3 rows, the row fill itself; in a row without any known pixel, NaN. ``holes`` = the pixels filled;
+    ``measured`` = the filtered map (``out`` with NaN where filled: ``DisparityMap.disparity``).
 
     ``rows`` (3, W) float32, ``kept_rows`` (3, W) uint8 and ``columns`` (3, W + 2) float32 are this worker's
     scratch: the row-filled rows y - 1, y, y + 1 in a ring (row r in slot r % 3; a stripe makes its border rows'
@@ -231,6 +232,7 @@ def apply_and_fill_stripe(disp, max_size, y0, y1, labels, parent, sizes, out, ho
             for x in range(W):
                 out[y, x] = nan
                 holes[y, x] = False
+                measured[y, x] = nan
             continue
         n_kept += known[s]
         n_filled += W - known[s]
@@ -239,6 +241,7 @@ def apply_and_fill_stripe(disp, max_size, y0, y1, labels, parent, sizes, out, ho
             for x in range(W):
                 out[y, x] = disp[y, x] if kept[x] else b[x]
                 holes[y, x] = not kept[x]
+                measured[y, x] = disp[y, x] if kept[x] else nan
             continue
         a, c = rows[sm], rows[sp]
         for x in range(W):
@@ -251,10 +254,12 @@ def apply_and_fill_stripe(disp, max_size, y0, y1, labels, parent, sizes, out, ho
         drow = disp[y]
         orow = out[y]
         hrow = holes[y]
+        mrow = measured[y]
         for x in range(W):  # column x of the image is x + 1 of the sorted thirds: no clamped index, vector loads
             m = _med3(max(max(lo[x], lo[x + 1]), lo[x + 2]), _med3(mi[x], mi[x + 1], mi[x + 2]),
                       min(min(hi[x], hi[x + 1]), hi[x + 2]))
             k = kept[x] != 0
             orow[x] = drow[x] if k else m
             hrow[x] = not k
+            mrow[x] = drow[x] if k else nan
     return n_kept, n_filled

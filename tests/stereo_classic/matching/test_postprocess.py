@@ -202,17 +202,21 @@ def test_speckle_filter_and_fill_in_one_pass_equal_the_two_steps(threads):
             d[0, 0] = np.inf
         for size in (0, 1, 4, 60):
             expected = filter_speckles(d, max_size=size, max_diff=1.0)
-            out, holes, kept, filled = _speckle_fill_counted(d, max_size=size, max_diff=1.0, threads=threads)
+            out, holes, kept, filled, measured = _speckle_fill_counted(d, max_size=size, max_diff=1.0,
+                                                                       threads=threads)
             np.testing.assert_array_equal(out, _fill_reference(expected))
             np.testing.assert_array_equal(holes, ~np.isfinite(expected) & np.isfinite(out))
             assert kept == int(np.isfinite(expected).sum()) and filled == int(holes.sum())
+            if measured is not None:  # the filtered map: the filled one with NaN where filled
+                np.testing.assert_array_equal(measured, np.where(holes, np.float32(np.nan), out))
+                np.testing.assert_array_equal(measured, np.where(np.isfinite(expected), expected, np.float32(np.nan)))
             # the matcher's bound on the magnitudes instead of a scan for them: the same
             finite = np.abs(d[np.isfinite(d)])
             bound = float(finite.max()) + 1.0 if finite.size else 1.0
             again = _speckle_fill_counted(d, max_size=size, max_diff=1.0, threads=threads, bound=bound)
             np.testing.assert_array_equal(again[0], out)
             np.testing.assert_array_equal(again[1], holes)
-            assert again[2:] == (kept, filled)
+            assert again[2:4] == (kept, filled)
             if size == 0:
                 continue
             # the matcher's labels made stripe by stripe, in any order, as it finishes them (``StripeLabels``)
@@ -223,7 +227,8 @@ def test_speckle_filter_and_fill_in_one_pass_equal_the_two_steps(threads):
                                           labelled=labelled)
             np.testing.assert_array_equal(fused[0], out)
             np.testing.assert_array_equal(fused[1], holes)
-            assert fused[2:] == (kept, filled)
+            assert fused[2:4] == (kept, filled)
+            np.testing.assert_array_equal(fused[4], again[4])
 
 
 def test_stripe_labels_refuse_what_they_were_not_made_of():

@@ -62,3 +62,28 @@ def test_one_pass_and_numpy_checks_agree(order):
             DisparityMap(e, None, SGMParams(), filled=filled)
     with pytest.raises(ValueError, match="does not describe"):
         DisparityMap(d, None, SGMParams(), filled=filled, validity={"valid": 1})
+
+
+def test_the_matchers_one_pass_maps_make_the_same_object():
+    """``DisparityMap._of_one_pass`` (the post-processing's measured map and counts instead of the constructor's pass)
+    makes what the constructor makes of the filled map, and still checks what the pass does not vouch for."""
+    from stereo_classic.matching.postprocess import _speckle_fill_counted
+
+    rng = np.random.default_rng(3)
+    d = np.round(rng.uniform(0, 40, (90, 70)) * 0.25).astype(np.float32)
+    d[rng.random(d.shape) < 0.4] = np.nan
+    d[10] = np.nan
+    out, holes, kept, filled, measured = _speckle_fill_counted(d, max_size=5, max_diff=1.0, threads=2)
+    assert measured is not None and filled > 0
+    validity = {"valid": kept + filled, "pixels": d.size}
+    a = DisparityMap._of_one_pass(out, holes, measured, kept, filled, disparity_right=None, params=SGMParams(),
+                                  validity=validity)
+    b = DisparityMap(disparity=out, disparity_right=None, params=SGMParams(), validity=validity, filled=holes)
+    for name in ("disparity", "filled_disparity", "filled"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert a.validity == b.validity and a.disparity is measured
+    with pytest.raises(ValueError, match="does not describe"):
+        DisparityMap._of_one_pass(out, holes, measured, kept, filled, disparity_right=None, params=SGMParams(),
+                                  validity={"valid": kept})
+    c = DisparityMap(disparity=out, disparity_right=None, params=SGMParams(), filled=holes)  # the hand-over is gone
+    assert c.disparity is not measured
