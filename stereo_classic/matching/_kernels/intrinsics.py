@@ -12,8 +12,8 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-__all__ = ["add16", "sub16", "min16", "umin16", "max16", "absdiff16", "and16", "shr16", "lshr16", "mulshr16", "mulhi16", "mullo16",
-           "popxor16", "pick16", "eq16", "eq_mask32", "cttz64", "MASK_LANES"]
+__all__ = ["add16", "sub16", "min16", "umin16", "max16", "absdiff16", "and16", "shr16", "lshr16", "mulshr16",
+           "mulhi16", "mullo16", "popxor16", "pick16", "eq16", "eq_mask32", "cttz64", "MASK_LANES"]
 
 
 def _check_int16(*args: types.Type) -> None:
