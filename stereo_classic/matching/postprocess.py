@@ -88,42 +88,45 @@ def _speckle_scale(lo: float, hi: float, max_diff: float) -> tuple[np.float32, i
     return scale, int(round(max_diff * float(scale)))
 
 
-def _label_arrays(shape: tuple[int, int], empty) -> tuple[np.ndarray, ...]:
-    """The labelling's arrays (scaled copy, labels, union-find parents, sizes) from the allocator ``empty``."""
-    size = shape[0] * shape[1]
-    return (empty("speckle_scaled", shape, np.int16), empty("speckle_labels", shape, np.int32),
-            empty("speckle_parent", (size,), np.int32), empty("speckle_sizes", (size,), np.int32))
-
-
 def _label_regions(disp: np.ndarray, lo: float, hi: float, max_diff: float, n_workers: int, empty
                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The speckle filter's regions of ``disp`` (finite values in [lo, hi]): labels, union-find parents and
     sizes, labelled stripe by stripe on ``n_workers`` workers and joined across the stripes' borders."""
-    bands = _kernels.stripes(disp.shape[0])
-    scale, max_diff_scaled = _speckle_scale(lo, hi, max_diff)
-    scaled, labels, parent, sizes = _label_arrays(disp.shape, empty)
-    _kernels.run_stripes(bands, n_workers, lambda t, y0, y1: _speckle.label_stripe(
-        disp, scale, max_diff_scaled, y0, y1, scaled, labels, parent, sizes))
-    _speckle.join_stripes(np.array([y0 for y0, _ in bands[1:]], np.int64), max_diff_scaled, scaled, labels,
-                          parent, sizes)
-    return labels, parent, sizes
+    labelled = StripeLabels.of_range(disp.shape, lo, hi, max_diff, empty)
+    _kernels.run_stripes(_kernels.stripes(disp.shape[0]), n_workers,
+                         lambda t, y0, y1: labelled.label(disp, y0, y1))
+    return labelled.joined(disp)
 
 
 class StripeLabels:
-    """The speckle filter's regions labelled stripe by stripe while the matcher makes the map (``label`` is its
-    ``sgm_match(on_rows=...)``), for ``_speckle_fill_counted(..., labelled=...)``, which joins them: the labels of
-    ``_label_regions`` on the finished map (tested). For maps whose values lie within ``bound`` pixels of 0 with
-    ``bound * 16 <= _I16_LIMIT`` (``fits``): the scale is then 16 whatever the values are."""
+    """The speckle filter's regions labelled stripe by stripe (``label``) and joined across the stripes (``joined``):
+    by ``_label_regions`` on a finished map, and by the matcher while it makes the map (``label`` is its
+    ``sgm_match(on_rows=...)``), for ``_speckle_fill_counted(..., labelled=...)``. The matcher's are made for maps
+    whose values lie within ``bound`` pixels of 0 with ``bound * 16 <= _I16_LIMIT`` (``fits``): the scale is then 16
+    whatever the values are, that of the finished map's labels (tested)."""
 
     def __init__(self, shape: tuple[int, int], max_diff: float, bound: float, workspace: Workspace | None = None):
         if not self.fits(bound):
             raise ValueError(f"`bound` must be between 0 and {_I16_LIMIT / 16.0:g} pixels, got {bound!r}")
+        self._start(shape, _speckle_scale(-bound, bound, max_diff), _kernels.scratch_allocator(workspace))
+        self.bound: float | None = float(bound)
+
+    @classmethod
+    def of_range(cls, shape: tuple[int, int], lo: float, hi: float, max_diff: float, empty) -> StripeLabels:
+        """Labels of a map whose finite values lie in [lo, hi] (its scale; no bound), arrays from ``empty``."""
+        labelled = cls.__new__(cls)
+        labelled._start(shape, _speckle_scale(lo, hi, max_diff), empty)
+        labelled.bound = None
+        return labelled
+
+    def _start(self, shape: tuple[int, int], scaling: tuple[np.float32, int], empty) -> None:
         self.shape = tuple(shape)
-        self.bound = float(bound)
-        self.scale, self.max_diff_scaled = _speckle_scale(-bound, bound, max_diff)
-        self.arrays = _label_arrays(self.shape, _kernels.scratch_allocator(workspace))
+        self.scale, self.max_diff_scaled = scaling
+        size = self.shape[0] * self.shape[1]  # the scaled copy, labels, union-find parents, sizes
+        self.arrays = (empty("speckle_scaled", self.shape, np.int16), empty("speckle_labels", self.shape, np.int32),
+                       empty("speckle_parent", (size,), np.int32), empty("speckle_sizes", (size,), np.int32))
         self.disparity: np.ndarray | None = None
-        self._done = np.zeros(shape[0], np.bool_)
+        self._done = np.zeros(self.shape[0], np.bool_)
 
     @staticmethod
     def fits(bound: float) -> bool:

@@ -3,9 +3,8 @@
 from __future__ import annotations
 
 import math
-import threading
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import InitVar, dataclass, field
 
 import numpy as np
 from numba import njit
@@ -13,8 +12,6 @@ from numba import njit
 from stereo_classic.matching.params import SGMParams
 
 __all__ = ["DisparityMap"]
-
-_presplit = threading.local()  # DisparityMap._of_one_pass hands the one pass's maps and counts to __post_init__
 
 
 @njit(cache=True, nogil=True)
@@ -91,8 +88,9 @@ class DisparityMap:
     validity: dict[str, int | None] = field(default_factory=dict)
     filled: np.ndarray | None = None
     left_gray: np.ndarray | None = None
+    _one_pass: InitVar[tuple | None] = None  # (measured map, counts): ``_of_one_pass``'s, instead of the pass below
 
-    def __post_init__(self) -> None:
+    def __post_init__(self, _one_pass: tuple | None) -> None:
         disp = self.disparity
         if not isinstance(disp, np.ndarray) or disp.ndim != 2 or disp.dtype != np.float32:
             raise ValueError(f"`disparity` must be a (H, W) float32 array, got "
@@ -100,9 +98,10 @@ class DisparityMap:
         filled = self.filled
         fast = (isinstance(filled, np.ndarray) and filled.shape == disp.shape and filled.dtype == np.bool_
                 and disp.flags.c_contiguous and filled.flags.c_contiguous)  # the matcher's maps: one pass
-        given = getattr(_presplit, "maps", None)
-        if fast and given is not None and given[0] is disp and given[1] is filled:  # made by the post-processing
-            measured, (n_valid, n_inf, n_bad, n_filled) = given[2], given[3]
+        if fast and _one_pass is not None:  # made by the post-processing beside ``disparity``
+            measured, (n_valid, n_inf, n_bad, n_filled) = _one_pass
+            if not (isinstance(measured, np.ndarray) and measured.shape == disp.shape and measured.dtype == disp.dtype):
+                raise ValueError(f"`_one_pass` must hold a float32 map of shape {disp.shape}")
         elif fast:
             measured = np.empty_like(disp)
             n_valid, n_inf, n_bad, n_filled = _split_filled(disp, filled, measured)
@@ -152,11 +151,8 @@ class DisparityMap:
         over the maps. What that pass checks holds by how the one pass makes them (kept pixels are finite values of
         the speckle filter's regions, filled ones the minimum or median of such values, every filled pixel known);
         every other check is made as always."""
-        _presplit.maps = (filled_disparity, filled, measured, (int(kept) + int(n_filled), 0, 0, int(n_filled)))
-        try:
-            return cls(disparity=filled_disparity, filled=filled, **fields)
-        finally:
-            _presplit.maps = None
+        counts = (int(kept) + int(n_filled), 0, 0, int(n_filled))
+        return cls(disparity=filled_disparity, filled=filled, _one_pass=(measured, counts), **fields)
 
     @property
     def filled_disparity(self) -> np.ndarray:

@@ -677,10 +677,14 @@ def test_speckle_labels_made_while_matching_change_nothing(monkeypatch, threads,
     right[100:140, 20:60] = 255  # a blank patch: unknown pixels and small regions for the filter
     params = SGMParams(num_disparities=32, threads=threads, paths=paths, speckle_size=60)
     assert len(kernels.stripes(left.shape[0])) >= 4
-    calls = []
-    label = matcher_mod.StripeLabels.label
-    monkeypatch.setattr(matcher_mod.StripeLabels, "label", lambda self, d, y0, y1: (calls.append((y0, y1)),
-                                                                                     label(self, d, y0, y1)))
+    calls = []  # the stripes labelled while matching: the matcher's ``on_rows``
+    sgm_match = kernels.sgm_match
+
+    def counting(*args, on_rows=None, **kw):
+        seen = None if on_rows is None else lambda d, y0, y1: (calls.append((y0, y1)), on_rows(d, y0, y1))
+        return sgm_match(*args, on_rows=seen, **kw)
+
+    monkeypatch.setattr(kernels, "sgm_match", counting)
     fused = compute_disparity(left, right, params)
     assert sorted(calls) == kernels.stripes(left.shape[0])
     monkeypatch.setattr(matcher_mod.StripeLabels, "fits", staticmethod(lambda bound: False))
