@@ -175,7 +175,7 @@ def row_pass_bytes(H: int, W: int, D: int, warm_rows: int = 0) -> int:
     E = slot_size(D)
     slots = W + H + 1
     return (2 * (warm_rows + 4) * W * D + 2 * slots * E + 2 * slots + 2 * 2 * 2 * E + 8 + 2 * W + 2 * D
-            + 2 * 2 * (W + D - 1) + 8 * W + 16 + 2 * 2 * W)
+            + 2 * 2 * (W + D - 1) + 8 * W + 24 + 2 * 2 * W)
 
 
 @njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)

@@ -946,6 +946,15 @@ def test_disparity_tag_carries_the_buffers_disparities():
             disparity_tag(bad)
 
 
+def test_row_pass_bytes_is_what_the_buffers_take():
+    """``row_pass_bytes`` (``memory_bytes``'s term for the one-sweep kernel's buffers) is exactly their size."""
+    from stereo_classic.matching._kernels.rowpass import row_pass_buffers, row_pass_bytes
+
+    for H, W, D, warm in ((480, 640, 64, 16), (375, 1242, 128, 16), (10, 40, 96, 0)):
+        buffers = row_pass_buffers(H, W, D, warm)
+        assert row_pass_bytes(H, W, D, warm) == sum(a.nbytes for a in buffers if isinstance(a, np.ndarray))
+
+
 def test_buffers_start_on_a_cache_line():
     """The row buffers, the cost state and the workspace's arrays start on a 64-byte boundary, and so does every
     path slot's first disparity (element 1 of a slot of ``slot_size(D)``), for whole and padded ranges."""
