@@ -23,11 +23,13 @@ import numpy as np
 from stereo_classic.matching import learned
 from stereo_classic.matching.border import confirm_left_border, left_border_columns, strip_params, strip_width
 from stereo_classic.matching._kernels import core as kernels
+from stereo_classic.matching._kernels.handout import handout_allocator
 from stereo_classic.matching.params import SGMParams
 from stereo_classic.matching.postprocess import (
     StripeLabels,
     _speckle_and_fill,
     fill_bytes,
+    finite_in_columns,
     median_bytes,
     median_measured,
     speckle_bytes,
@@ -316,8 +318,7 @@ def _resolve_params(params: SGMParams | None, overrides: dict[str, Any]) -> SGMP
 
 
 def _reach(width: int, params: SGMParams) -> np.ndarray:
-    """(W,) int: per column, how many disparities of the range map inside the right image (``num_disparities``
-    in the interior, fewer in the border bands, 0 where none does)."""
+    """(W,) int: per column, how many disparities of the range map inside the right image (fewer in the borders)."""
     x = np.arange(width)
     first = np.maximum(0, x - params.min_disparity - width + 1)
     last = np.minimum(params.num_disparities - 1, x - params.min_disparity)
@@ -443,17 +444,19 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         "speckle_removed": valid_before - valid_after_speckle,
         "filled": filled,
         "border": int(border.sum()) * disparity.shape[0],
-        "border_valid": int(np.count_nonzero(np.isfinite(disparity[:, border]))),
+        "border_valid": finite_in_columns(disparity, border),
     }
     if disparity_right is not None:
         disparity_right = np.asarray(disparity_right, dtype=np.float32)
+    left_copy = handout_allocator(workspace)("left_gray", gray_left.shape, np.uint8)  # for ``confidence``
+    np.copyto(left_copy, gray_left)
     if measured is not None:  # the one pass made the measured map beside the filled one
         return DisparityMap._of_one_pass(disparity, filled_mask, measured, valid_after_speckle, filled,
                                          disparity_right=disparity_right, params=params, timings_ms=timings,
-                                         validity=validity, left_gray=np.array(gray_left, dtype=np.uint8, copy=True))
+                                         validity=validity, left_gray=left_copy)
     return DisparityMap(disparity=disparity, disparity_right=disparity_right, params=params,
                         timings_ms=timings, validity=validity, filled=filled_mask,
-                        left_gray=np.array(gray_left, dtype=np.uint8, copy=True))  # for ``confidence``
+                        left_gray=left_copy)
 
 
 def compute_disparity(left: Any, right: Any, params: SGMParams | None = None, **overrides: Any) -> DisparityMap:
@@ -539,13 +542,13 @@ def load_kernels(params: SGMParams | None = None, **overrides: Any) -> bool:
 class StereoMatcher:
     """Holds parameters for a sequence of frames and reuses what it can between frames of one size.
 
-    Per image size and dtype the memory budget is checked once; the kernels' buffers (row buffers for
-    3 paths, about ``2 * num_disparities * (4 * W + H)`` bytes per thread; with 4 or 8 paths also the
-    ``2 * H * W * num_disparities``-byte sum volume) are kept and reused, which saves their allocation and page
-    faults on every frame. The buffers stay allocated while the matcher lives
-    (they are replaced when the image size changes; ``release()`` frees them). Safe to share between
-    threads: a call that finds the buffers busy allocates its own, after checking that its estimate
-    plus the busy call's fits in the memory limit (``MemoryBudgetError`` otherwise).
+    Per image size and dtype the memory budget is checked once; the kernels' buffers (row buffers for 3 paths, about
+    ``2 * num_disparities * (4 * W + H)`` bytes per thread; 4 or 8 paths also the ``2 * H * W * num_disparities``-byte
+    sum volume) are kept and reused, which saves their allocation and page faults on every frame, until the image
+    size changes or ``release()``; so are the maps of the last three results: a new result's maps are written into
+    those of one that nothing holds any more (never a held one). Safe to share between threads: a call that finds
+    the buffers busy allocates its own, after checking that its estimate plus the busy call's fits in the memory
+    limit (``MemoryBudgetError`` otherwise).
 
     >>> rng = np.random.default_rng(2)
     >>> frames = [(np.roll(right, 3, axis=1), right) for right in rng.integers(0, 256, (2, 32, 64), np.uint8)]

@@ -20,6 +20,7 @@ from numba import njit
 from stereo_classic.matching._kernels import core as _kernels
 from stereo_classic.matching._kernels import speckle as _speckle
 from stereo_classic.matching._kernels.core import Workspace
+from stereo_classic.matching._kernels.handout import handout_allocator
 
 __all__ = ["filter_speckles", "fill_holes", "fill_holes_marked", "median_measured"]
 
@@ -79,6 +80,13 @@ def _check_speckle_args(disparity: np.ndarray, max_size: int, max_diff: float, t
         raise ValueError(f"`disparity` has {disp.size} pixels; the speckle filter labels at most {_MAX_LABELS - 1} "
                          "(int32 region labels): filter it in parts")
     return np.ascontiguousarray(disp)
+
+
+def finite_in_columns(disparity: np.ndarray, columns: np.ndarray) -> int:
+    """How many pixels of ``disparity`` (H, W) are finite in the columns where ``columns`` (W,) bool is true: by
+    its runs of columns, slices of the map (no copy of the columns)."""
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], columns.astype(np.int8), [0]))))
+    return sum(int(np.count_nonzero(np.isfinite(disparity[:, a:b]))) for a, b in zip(edges[::2], edges[1::2]))
 
 
 def _speckle_scale(lo: float, hi: float, max_diff: float) -> tuple[np.float32, int]:
@@ -207,9 +215,9 @@ def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: flo
     W = disp.shape[1]
     scratch = [(empty(f"fill_rows_{t}", (3, W), np.float32), empty(f"fill_kept_{t}", (3, W), np.uint8),
                 empty(f"fill_columns_{t}", (3, W + 2), np.float32)) for t in range(n_workers)]
-    out = np.empty_like(disp)
-    holes = np.empty(disp.shape, np.bool_)
-    measured = np.empty_like(disp)
+    handout = handout_allocator(workspace)  # the result's maps: those of an earlier result nothing holds, or new
+    out, holes, measured = (handout(name, disp.shape, dtype) for name, dtype in (
+        ("filled_disparity", disp.dtype), ("filled", np.bool_), ("disparity", disp.dtype)))
     counts = _kernels.run_stripes(bands, n_workers, lambda t, y0, y1: _speckle.apply_and_fill_stripe(
         disp, int(max_size), y0, y1, labels, parent, sizes, out, holes, measured, *scratch[t]))
     return out, holes, int(sum(c[0] for c in counts)), int(sum(c[1] for c in counts)), measured
@@ -507,7 +515,7 @@ def median_measured(disparity: np.ndarray, holes: np.ndarray | None = None, *, t
     empty = _kernels.scratch_allocator(workspace)
     pad = empty("median_pad", (H + 2, W + 2), np.float32)
     pad[0, :] = pad[-1, :] = pad[:, 0] = pad[:, -1] = np.inf
-    out = np.empty_like(disp)
+    out = handout_allocator(workspace)("median_disparity", disp.shape, disp.dtype)  # a result's map
     bands = _kernels.stripes(H)
     n_workers = _kernels.workers_for(threads, len(bands))
     _kernels.run_stripes(bands, n_workers, lambda t, y0, y1: _pad_measured(disp, holes, y0, y1, pad))

@@ -50,6 +50,7 @@ from stereo_classic.matching._kernels.cost import (
     sobel_rows,
 )
 from stereo_classic.matching._kernels.features import FEATURES, check_features, with_features
+from stereo_classic.matching._kernels.handout import HandOut, handout_allocator
 from stereo_classic.matching._kernels.rowpass import (RowPassBuffers, StripePlan, path_slots, row_pass_buffers,
                                                      row_pass_bytes, slot_size, three_path_stripe)
 from stereo_classic.matching._kernels.tags import disparity_tag
@@ -119,9 +120,8 @@ def stripes(height: int) -> list[tuple[int, int]]:
 
 
 def workers_for(threads: int, n_stripes: int) -> int:
-    """How many workers run ``n_stripes`` stripes for ``threads`` threads: never more than stripes, nor than CPUs
-    to run them (extra threads would only time-slice; measured on 2 cores: 8 workers cost 1.21x the CPU time
-    of 1; the result is the same for any count anyway)."""
+    """How many workers run ``n_stripes`` stripes for ``threads`` threads: never more than stripes, nor than CPUs to
+    run them (extra ones only time-slice: on 2 cores 8 workers cost 1.21x the CPU time of 1; same result for any)."""
     return max(1, min(int(threads), n_stripes, usable_cpus()))
 
 
@@ -178,15 +178,15 @@ def _reset_row_pass(b: RowPassBuffers, D: int) -> None:
 
 
 class Workspace:
-    """Buffers (sum volume, row buffers) kept between ``sgm_match`` calls on images of one size,
-    so that repeated calls (video frames) skip allocating and page-faulting about 2*H*W*D bytes.
-    Not thread-safe: one workspace per concurrent caller."""
+    """Buffers (sum volume, row buffers) kept between ``sgm_match`` calls on images of one size, so that repeated calls
+    (video frames) skip allocating and page-faulting them, and the results' maps (``handout``). One per caller."""
 
     def __init__(self) -> None:
         self.S: np.ndarray | None = None
         self.bufs: list[ThreadBuffers] | None = None
         self._key: tuple | None = None
         self._scratch: dict[str, np.ndarray] = {}
+        self.handout = HandOut()
 
     def fits(self, *key) -> bool:
         return self._key == key
@@ -196,8 +196,7 @@ class Workspace:
 
     def scratch(self, name: str, shape: tuple[int, ...], dtype) -> np.ndarray:
         """An array kept under ``name`` for one call's temporaries (contents undefined), made anew when the shape
-        or dtype changes: a fresh array of a few MB costs about half a millisecond of page faults a call, more
-        when worker threads fault on it at once."""
+        or dtype changes (a fresh array of a few MB costs page faults on every call: ``handout``)."""
         arr = self._scratch.get(name)
         if arr is None or arr.shape != tuple(shape) or arr.dtype != np.dtype(dtype):
             arr = aligned_empty(shape, dtype)
@@ -207,7 +206,7 @@ class Workspace:
     def release(self) -> None:
         """Drop the buffers."""
         self.S = self.bufs = self._key = None
-        self._scratch = {}
+        self._scratch, self.handout = {}, HandOut()
 
     def arrays(self) -> list[np.ndarray]:
         """Every buffer kept (empty when none)."""
@@ -222,7 +221,7 @@ class Workspace:
 
     @property
     def nbytes(self) -> int:
-        return sum(a.nbytes for a in self.arrays())
+        return sum(a.nbytes for a in self.arrays()) + self.handout.free_bytes()
 
 
 def scratch_allocator(workspace: Workspace | None) -> Callable[[str, tuple[int, ...], Any], np.ndarray]:
@@ -396,7 +395,7 @@ def _run(left, right, *, cost, min_disparity, num_disparities, block_size, censu
     for c in counters:
         c[:] = 0
     disp = scratch_allocator(workspace if scratch_output else None)("disparity", (H, W), np.float32)
-    dispR = np.empty((H, W), np.float32)  # returned whenever computed (the "full" LR check computes it)
+    dispR = handout_allocator(workspace)("disparity_right", (H, W), np.float32)  # returned whenever computed
     lr_thr = -1.0 if lr_check is None else float(lr_check)
     if lr_mode not in ("full", "opencv"):
         raise ValueError(f"`lr_mode` must be 'full' or 'opencv', got {lr_mode!r}")
