@@ -41,6 +41,8 @@ from stereo_classic.matching._kernels.intrinsics import (
 )
 from stereo_classic.matching._kernels.tags import tag_disparities
 
+# ``_nrt=False``: kernels that run per row and allocate nothing, compiled without numba's reference counts on their
+# array arguments (atomic updates, on every call, of counters both workers share; docs/matching.md, seventh round).
 __all__ = [
     "SOBEL_CAP",
     "SAD_PIXEL_MAX",
@@ -318,7 +320,7 @@ def valid_range(x, W, dmin, D):  # pragma: no cover - numba
     return max(0, x - dmin - W + 1), min(D - 1, x - dmin)
 
 
-@njit(cache=True, nogil=True)
+@njit(_nrt=False, cache=True, nogil=True)
 def sad_reverse_row(rsob, rint, y, srev, irev, dmin, h, intensity):  # pragma: no cover - numba
     """srev[j] = rsob[y, clamp(W - 1 + h - dmin - j)], same for the intensity row (when ``intensity``)."""
     W = rsob.shape[1]
@@ -330,7 +332,7 @@ def sad_reverse_row(rsob, rint, y, srev, irev, dmin, h, intensity):  # pragma: n
             irev[j] = rint[y, c]
 
 
-@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+@njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def sad_colsum_row(colsum, add, lsob, lint, y, srev, irev, h, D, intensity):  # pragma: no cover - numba
     """colsum[(x' + h) * D + k] (+/-)= AD(x', x' - dmin - k) for x' in [-h, W + h), one image row.
 
@@ -361,7 +363,7 @@ def sad_colsum_row(colsum, add, lsob, lint, y, srev, irev, h, D, intensity):  # 
                 colsum[_U(base + k)] = sub16(colsum[_U(base + k)], absdiff16(ls, srev[_U(j0 + k)]))
 
 
-@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+@njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D, intensity):  # pragma: no cover
     """colsum = sum of AD rows clamp(y - h) .. clamp(y + h)."""
     H = lsob.shape[0]
@@ -372,7 +374,7 @@ def sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D, i
         sad_colsum_row(colsum, True, lsob, lint, yc, srev, irev, h, D, intensity)
 
 
-@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+@njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, tag,
                        intensity):  # pragma: no cover
     """Move the column window from row y - step to row y: add row y + step*h and drop row y - step*(h+1), in
@@ -415,7 +417,7 @@ def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin
                                              sub16(absdiff16(a, srev[_U(j0 + k)]), absdiff16(b, srev[_U(j1 + k)])))
 
 
-@njit(cache=True, nogil=True)
+@njit(_nrt=False, cache=True, nogil=True)
 def sad_hsum_init(hsum, colsum, x, h, D):  # pragma: no cover - numba
     """hsum[k] = sum of colsum over x' in [x - h, x + h]."""
     for k in range(D):
@@ -442,7 +444,7 @@ def _moved_sum(hsum, colsum, bout, bin_, k):  # pragma: no cover - numba
     return hs
 
 
-@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+@njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - numba
     """The matching cost of every pixel of row ``y``: ``crow[x * D + k]`` (int16), disparity ``min_disparity + k``.
 

@@ -37,6 +37,8 @@ from stereo_classic.matching._kernels.intrinsics import add16, umin16
 from stereo_classic.matching._kernels.select import right_view_row, select_row
 from stereo_classic.matching._kernels.tags import disparity_tag, tag_disparities
 
+# ``_nrt=False``: kernels that run per row and allocate nothing, compiled without numba's reference counts on their
+# array arguments (atomic updates, on every call, of counters both workers share; docs/matching.md, seventh round).
 __all__ = ["RowPassBuffers", "StripePlan", "three_path_stripe", "path_slots", "row_pass_buffers", "row_pass_bytes",
            "slot_size"]
 
@@ -178,7 +180,7 @@ def row_pass_bytes(H: int, W: int, D: int, warm_rows: int = 0) -> int:
             + 2 * 2 * (W + D - 1) + 8 * W + 24 + 2 * 2 * W)
 
 
-@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+@njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma: no cover - numba
     """Aggregate the left, top and right paths over ``plan``'s rows and resolve each row at once.
 

@@ -15,6 +15,8 @@ from stereo_classic.matching._kernels.cost import NoAliasCompiler, valid_range
 from stereo_classic.matching._kernels.intrinsics import MASK_LANES, cttz64, eq_mask32, min16, pick16
 from stereo_classic.matching._kernels.tags import tag_disparities
 
+# ``_nrt=False``: kernels that run per row and allocate nothing, compiled without numba's reference counts on their
+# array arguments (atomic updates, on every call, of counters both workers share; docs/matching.md, seventh round).
 __all__ = ["select_row", "right_view_row"]
 
 _INT16_MAX = 32767
@@ -24,7 +26,7 @@ _ROUNDS = 32
 _U = np.uint64  # unsigned flat indices: no wraparound code, contiguous vector loads
 
 
-@njit(cache=True, nogil=True)
+@njit(_nrt=False, cache=True, nogil=True)
 def first_equal(row, start, n, value):  # pragma: no cover - numba
     """The first i in 0 .. n - 1 with ``row[start + i] == value`` (``_INT16_MAX`` when there is none): whole blocks of
     MASK_LANES by a vector compare read as a bit mask and its trailing zeros (``eq_mask32``), the rest one by one.
@@ -43,7 +45,7 @@ def first_equal(row, start, n, value):  # pragma: no cover - numba
     return _INT16_MAX
 
 
-@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+@njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, right_k, best, counts, claim_cost,
                claim_k, out, tag):  # pragma: no cover - numba
     """Resolve row ``y`` from its complete sums ``sums[x * D + k]`` (int16; D = ``len(k_index)``: the ``ndisp``
@@ -149,7 +151,7 @@ def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, rig
                 dispR[y, xr] = nan
 
 
-@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+@njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def right_view_row(srow, rv, rd, W, tag):  # pragma: no cover - numba
     """The right view's winner of one row: per right pixel q = W - 1 - dmin - x_right, the lowest complete sum
     landing there (``rv``) and its disparity index (``rd``; ties: the smallest index, -1: none); ``tag``:
