@@ -24,7 +24,8 @@ HANDOUT_SLOTS = 3
 
 
 def _unheld(arr: np.ndarray) -> bool:
-    # references: the kept list's and this function's argument (the caller passes the list's item, no name of its own)
+    # three references: the kept list's, this function's parameter and getrefcount's own argument (callers pass the
+    # list's item and hold no name of their own for it)
     return sys.getrefcount(arr) == 3 and weakref.getweakrefcount(arr) == 0
 
 
