@@ -23,10 +23,25 @@ __all__ = ["HANDOUT_SLOTS", "HandOut", "handout_allocator"]
 HANDOUT_SLOTS = 3
 
 
-def _unheld(arr: np.ndarray) -> bool:
-    # three references: the kept list's, this function's parameter and getrefcount's own argument (callers pass the
-    # list's item and hold no name of their own for it)
-    return sys.getrefcount(arr) == 3 and weakref.getweakrefcount(arr) == 0
+def _refs(arr: np.ndarray) -> int:
+    """``arr``'s reference count as read here: the holders' and those this call adds (callers pass a list's item)."""
+    return sys.getrefcount(arr)
+
+
+def _free_refs() -> int:
+    """The count ``_refs`` reads for an array only a list holds, measured the way ``HandOut`` reads it: what a
+    call adds is the interpreter's business (3.14 borrows some references another version counts), so it is not
+    assumed."""
+    kept = [np.empty(0)]
+    return _refs(kept[0])
+
+
+#: ``_refs`` of an array that nothing but the kept list holds.
+_FREE = _free_refs()
+
+
+def _unheld(kept: list[np.ndarray], i: int) -> bool:
+    return _refs(kept[i]) == _FREE and weakref.getweakrefcount(kept[i]) == 0
 
 
 class HandOut:
@@ -41,12 +56,12 @@ class HandOut:
         shape, dtype = tuple(int(n) for n in shape), np.dtype(dtype)
         kept = self._kept.setdefault(name, [])
         for i in range(len(kept)):
-            if kept[i].shape == shape and kept[i].dtype == dtype and _unheld(kept[i]):
+            if kept[i].shape == shape and kept[i].dtype == dtype and _unheld(kept, i):
                 arr = kept.pop(i)
                 arr.flags.writeable = True  # its own memory (made below): allowed whatever a holder set
                 kept.append(arr)  # the most recently handed out last
                 return arr
-        arr = np.empty(shape, dtype)  # owns its memory: a view of it references it (``_unheld`` counts those)
+        arr = np.empty(shape, dtype)  # owns its memory: a view of it references it (``_refs`` counts those)
         kept.append(arr)
         if len(kept) > HANDOUT_SLOTS:
             del kept[0]  # the oldest: whoever holds it keeps it
@@ -54,7 +69,7 @@ class HandOut:
 
     def free_bytes(self) -> int:
         """Bytes kept that nothing else holds (what this keeps alive beyond the results)."""
-        return sum(kept[i].nbytes for kept in self._kept.values() for i in range(len(kept)) if _unheld(kept[i]))
+        return sum(kept[i].nbytes for kept in self._kept.values() for i in range(len(kept)) if _unheld(kept, i))
 
 
 def handout_allocator(workspace) -> Callable[[str, tuple[int, ...], Any], np.ndarray]:
