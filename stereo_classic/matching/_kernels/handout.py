@@ -61,6 +61,8 @@ class HandOut:
                 arr.flags.writeable = True  # its own memory (made below): allowed whatever a holder set
                 kept.append(arr)  # the most recently handed out last
                 return arr
+        # free ones of another shape or dtype (the image size changed) are let go rather than kept beside the new one
+        kept[:] = [kept[i] for i in range(len(kept)) if not _unheld(kept, i)]
         arr = np.empty(shape, dtype)  # owns its memory: a view of it references it (``_refs`` counts those)
         kept.append(arr)
         if len(kept) > HANDOUT_SLOTS:

@@ -44,12 +44,25 @@ def test_an_array_something_holds_is_never_handed_out(hold):
     assert held is not None and np.all(np.asarray(held) == 3.0)
 
 
-def test_other_shapes_dtypes_and_names_get_their_own_arrays():
+def test_another_name_never_gets_an_array_of_this_one():
     h = HandOut()
     address = _pointer(h("m", (4, 5), np.float32))  # dropped at once: free, and still kept here
-    for name, shape, dtype in (("m", (5, 4), np.float32), ("m", (4, 5), np.int32), ("n", (4, 5), np.float32)):
-        assert _pointer(h(name, shape, dtype)) != address
+    assert _pointer(h("n", (4, 5), np.float32)) != address
     assert _pointer(h("m", (4, 5), np.float32)) == address
+
+
+@pytest.mark.parametrize("shape, dtype", [((4, 4), np.float64), ((8, 8), np.int64), ((8, 8), np.float32)])
+def test_another_size_or_dtype_lets_the_free_arrays_of_the_old_one_go(shape, dtype):
+    h = HandOut()
+    a, b = h("m", (8, 8), np.float64), h("m", (8, 8), np.float64)
+    del a, b
+    assert h.free_bytes() == 2 * 8 * 8 * 8
+    c = h("m", shape, dtype)  # the image size changed: the old ones are not kept beside the new one
+    assert c.shape == shape and c.dtype == dtype and h.free_bytes() == 0
+    held = h("m", shape, dtype)
+    assert not np.shares_memory(held, c)
+    del c
+    assert h.free_bytes() == held.nbytes
 
 
 def test_it_keeps_the_last_slots_and_says_what_it_keeps_free():
