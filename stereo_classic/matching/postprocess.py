@@ -197,7 +197,7 @@ def _speckle_fill_counted(disparity: np.ndarray, *, max_size: int, max_diff: flo
     if labelled is not None and (disp is not labelled.disparity or bound != labelled.bound or max_size == 0):
         raise ValueError("`labelled` must hold the labels of `disparity` made with the same `bound`, and "
                          "`max_size` > 0")
-    if bound is not None and max_size > 0 and 0 <= bound and bound * 16.0 <= _I16_LIMIT:
+    if bound is not None and max_size > 0 and StripeLabels.fits(bound):
         lo, hi, n_valid = -float(bound), float(bound), -1  # n_valid unknown: a map without any is fine below
     else:
         lo, hi, n_valid = _finite_range(disp)

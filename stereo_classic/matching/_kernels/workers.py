@@ -126,7 +126,7 @@ def run_chained(n_items: int, n_workers: int, fn: Callable[[int, int, bool], Any
     ``follow(t, i)``: a second step for item i, run once ``fn`` has done it, on whichever worker is free: a worker
     whose run is broken does the follow-ups of finished items before it takes a free item out of turn, and waits
     for them while others still run theirs (so the follow-ups fill the time a worker would idle while the last
-    items finish). One worker runs each item's follow-up right after it."""
+    items finish). Each item's follow-up runs once, on one worker, after its ``fn`` has returned."""
     if n_workers <= 1:
         for i in range(n_items):
             fn(0, i, i > 0)
