@@ -15,6 +15,12 @@ an independent right view (Pandora's "accurate" cross check) is, for the strip o
 Cost: one match of a strip ``n + num_disparities + |min_disparity| + STRIP_MARGIN`` columns wide (``n`` the border
 columns: ``border_reach * num_disparities``), 15-25 % of the matcher's pixels at 1242 x 375 x 128, 640 x 480 x 64
 and the Middlebury sizes.
+
+``independent_check`` is the same check for every pixel (``SGMParams.lr_mode="independent"``): the whole pair matched
+again mirrored, a 3x3 median of the measured pixels of both views (Hirschmuller's, as Pandora runs it before its
+cross check), and each left pixel kept where the right image's own disparity at its match agrees within
+``lr_check``. Twice the matching, for fewer wrong measurements where the left view's sums agree with themselves
+(docs/matching.md, "An independent right view").
 """
 
 from __future__ import annotations
@@ -23,11 +29,32 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["STRIP_MARGIN", "left_border_columns", "strip_params", "strip_width", "confirm_left_border"]
+from stereo_classic.matching.postprocess import median_measured
+
+__all__ = ["STRIP_MARGIN", "column_reach", "confirm_left_border", "independent_check", "left_border_columns",
+           "mirrored_params", "short_reach", "strip_params", "strip_width"]
 
 #: Columns of the strip beyond what the checked pixels' matches can reach: the cost windows (census 9 x 7: 4 px,
 #: the gradient term's block: 2 px) and some warm-up for the path that enters the strip at its cut edge.
 STRIP_MARGIN = 16
+
+
+def column_reach(width: int, params) -> np.ndarray:
+    """(W,) int: per column, how many disparities of the range map inside the right image (fewer in the borders)."""
+    x = np.arange(width)
+    first = np.maximum(0, x - params.min_disparity - width + 1)
+    last = np.minimum(params.num_disparities - 1, x - params.min_disparity)
+    return np.maximum(0, last - first + 1)
+
+
+def short_reach(reach: np.ndarray, params) -> np.ndarray:
+    """(W,) bool: columns whose pixels can search fewer than ``effective_border_reach * num_disparities`` disparities.
+
+    At the image borders part of the range maps outside the right image; where most of it does, the true
+    match is likely out of reach and the winner of what is left is not a measurement (on the OAK-D scenes
+    such pixels came out at d ~ 0, "far away", at the left edge of a room).
+    """
+    return (reach > 0) & (reach < params.effective_border_reach * params.num_disparities)
 
 
 def left_border_columns(short: np.ndarray) -> int:
@@ -65,13 +92,46 @@ def confirm_left_border(left: np.ndarray, right: np.ndarray, disparity: np.ndarr
     mirrored_right = np.ascontiguousarray(left[:, :width][:, ::-1])
     strip = match(mirrored_left, mirrored_right, strip_params(params))
     right_view = strip.disparity[:, ::-1]  # the right image's own disparity, columns 0 .. width - 1
-    d = disparity[:, :columns]
-    ys, xs = np.nonzero(np.isfinite(d))
-    values = d[ys, xs]
-    xr = np.rint(xs - values).astype(np.int64)
-    inside = (xr >= 0) & (xr < width)
-    agree = np.zeros(values.shape, bool)
-    agree[inside] = np.abs(right_view[ys[inside], xr[inside]] - values[inside]) <= params.lr_check  # NaN: False
+    ys, xs, agree = _agreement(disparity[:, :columns], right_view, params.lr_check)
     keep = np.zeros((H, columns), bool)
     keep[ys[agree], xs[agree]] = True
     return keep
+
+
+def _agreement(d: np.ndarray, right_view: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ys, xs, agree): the finite pixels of ``d`` (a left view's columns from 0) and whether the right view's
+    disparity at each one's match ``x - rint(d)`` (inside ``right_view``'s columns) is within ``tolerance`` of it."""
+    ys, xs = np.nonzero(np.isfinite(d))
+    values = d[ys, xs]
+    xr = np.rint(xs - values).astype(np.int64)
+    inside = (xr >= 0) & (xr < right_view.shape[1])
+    agree = np.zeros(values.shape, bool)
+    agree[inside] = np.abs(right_view[ys[inside], xr[inside]] - values[inside]) <= tolerance  # NaN: False
+    return ys, xs, agree
+
+
+def mirrored_params(params):
+    """The ``SGMParams`` of the right image's own match for ``independent_check``: the caller's, with no check, border
+    rule, speckle filter, fill or median of its own (every winner a measurement) and no right view."""
+    return params.replace(lr_check=None, lr_mode="full", border_check=False, border_reach=0.0, speckle_size=0,
+                          fill_holes=False, median_filter=False, right_view=False)
+
+
+def independent_check(left: np.ndarray, right: np.ndarray, disparity: np.ndarray, params, match: Callable,
+                      threads: int = 1) -> tuple[np.ndarray, np.ndarray, int]:
+    """(checked, right_view, failed): the left-right check against the right image's own match.
+
+    ``left``, ``right``: the (H, W) uint8 grey pair; ``disparity``: the left view's winners (NaN: none), matched
+    without a check of its own; ``params``: its ``SGMParams`` (``lr_check``, px, the tolerance; not None);
+    ``match(left, right, params)``: the matcher, called once on the mirrored pair with ``mirrored_params``.
+    ``right_view`` is the right image's disparity after the 3x3 median of its measured pixels; ``checked`` is
+    ``disparity`` after the same median, NaN where the right view at ``x - rint(d)`` is unknown, outside the image or
+    farther than ``lr_check`` from ``d``; ``failed`` counts those pixels.
+    """
+    mirrored = match(np.ascontiguousarray(right[:, ::-1]), np.ascontiguousarray(left[:, ::-1]),
+                     mirrored_params(params))
+    right_view = median_measured(np.ascontiguousarray(mirrored.disparity[:, ::-1]), threads=threads)
+    checked = median_measured(np.ascontiguousarray(disparity), threads=threads)
+    ys, xs, agree = _agreement(checked, right_view, params.lr_check)
+    checked[ys[~agree], xs[~agree]] = np.nan
+    return checked, right_view, int(np.count_nonzero(~agree))

@@ -21,7 +21,8 @@ import cv2
 import numpy as np
 
 from stereo_classic.matching import learned
-from stereo_classic.matching.border import confirm_left_border, left_border_columns, strip_params, strip_width
+from stereo_classic.matching.border import (column_reach, confirm_left_border, independent_check, left_border_columns,
+                                           mirrored_params, short_reach, strip_params, strip_width)
 from stereo_classic.matching._kernels import core as kernels
 from stereo_classic.matching._kernels.handout import handout_allocator
 from stereo_classic.matching.params import SGMParams
@@ -281,6 +282,8 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
     if params.median_filter:
         post += median_bytes(height, width)
     strip = 0
+    if params.lr_check is not None and params.lr_mode == "independent":  # the mirrored pair's match, both medians
+        strip += 2 * pixels + 12 * pixels + estimate_memory((height, width), mirrored_params(params))
     if params.border_check and params.lr_check is not None and params.effective_border_reach > 0:  # the mirrored strip
         columns = min(width, math.ceil(params.effective_border_reach * params.num_disparities))
         strip_cols = strip_width(columns, width, params)
@@ -317,24 +320,6 @@ def _resolve_params(params: SGMParams | None, overrides: dict[str, Any]) -> SGMP
     return params.replace(**overrides) if overrides else params
 
 
-def _reach(width: int, params: SGMParams) -> np.ndarray:
-    """(W,) int: per column, how many disparities of the range map inside the right image (fewer in the borders)."""
-    x = np.arange(width)
-    first = np.maximum(0, x - params.min_disparity - width + 1)
-    last = np.minimum(params.num_disparities - 1, x - params.min_disparity)
-    return np.maximum(0, last - first + 1)
-
-
-def _short_reach(reach: np.ndarray, params: SGMParams) -> np.ndarray:
-    """(W,) bool: columns whose pixels can search fewer than ``effective_border_reach * num_disparities`` disparities.
-
-    At the image borders part of the range maps outside the right image; where most of it does, the true
-    match is likely out of reach and the winner of what is left is not a measurement (on the OAK-D scenes
-    such pixels came out at d ~ 0, "far away", at the left edge of a room).
-    """
-    return (reach > 0) & (reach < params.effective_border_reach * params.num_disparities)
-
-
 def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None = None,
            workspace: kernels.Workspace | None = None, reserved: int = 0) -> DisparityMap:
     """``reserved``: bytes a busy call of the same StereoMatcher holds; when > 0 the memory is checked
@@ -356,13 +341,15 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         gray_left, gray_right, normalisation=params.feature_input, threads=params.effective_threads)
     t_features = time.perf_counter()
 
-    reach = _reach(gray_left.shape[1], params)
-    short = _short_reach(reach, params)
+    reach = column_reach(gray_left.shape[1], params)
+    short = short_reach(reach, params)
     # winners lie in the range, subpixel within 0.5 px of one
     bound = max(abs(params.min_disparity), abs(params.min_disparity + params.num_disparities)) + 1.0
     stripe_counts: list[tuple[int, int]] = []
     labelled = None
-    if params.speckle_size > 0 and params.fill_holes and not params.border_check and StripeLabels.fits(bound):
+    independent = params.lr_check is not None and params.lr_mode == "independent"  # checked below, not by the kernels
+    if (params.speckle_size > 0 and params.fill_holes and not params.border_check and not independent
+            and StripeLabels.fits(bound)):
         # the speckle filter's labels made stripe by stripe as the matcher finishes them (by a worker that would
         # otherwise wait for the last stripes), each stripe's unknown pixels counted and its short-reach border
         # pixels set unknown first (below, the same on the whole map when this does not apply)
@@ -385,14 +372,19 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         cross_texture=params.p1_vertical_texture, outside_cost=params.outside_cost, paths=params.paths,
         feature_census=params.effective_feature_census,
         adaptive_p2=params.effective_adaptive_p2, weak_texture_gain=params.weak_texture_gain,
-        uniqueness=params.uniqueness / 100.0, lr_check=params.lr_check, subpixel=params.subpixel,
-        threads=params.effective_threads,
-        lr_mode=params.lr_mode, return_right=params.right_view, workspace=workspace,
+        uniqueness=params.uniqueness / 100.0, lr_check=None if independent else params.lr_check,
+        subpixel=params.subpixel, threads=params.effective_threads, lr_mode="full" if independent else params.lr_mode,
+        return_right=params.right_view and not independent, workspace=workspace,
         scratch_output=params.speckle_size > 0 or params.fill_holes,  # post-processing makes a new map of it
         on_rows=on_rows if labelled is not None else None)
     t2 = time.perf_counter()
 
     disparity = np.asarray(disparity, dtype=np.float32)
+    failed_independent = 0
+    if independent:  # the right image's own match, both views' 3x3 median, then the check (docs/matching.md)
+        disparity, right_own, failed_independent = independent_check(gray_left, gray_right, disparity, params, _match,
+                                                                     params.effective_threads)
+        disparity_right = right_own if params.right_view else None
     t_border = time.perf_counter()
     if labelled is not None:
         unknown_matcher = sum(u for u, _ in stripe_counts)
@@ -430,6 +422,8 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     timings.update({k: float(v) for k, v in dict(core_timings).items() if not k.startswith("n_")})
     if params.border_check:
         timings["border_check"] = (t_border_end - t_border) * 1e3
+    if independent:
+        timings["independent_check"] = (t_border - t2) * 1e3
     timings["postprocess"] = (t3 - t2) * 1e3
     timings["total"] = (t3 - t0) * 1e3
     validity = {
@@ -437,7 +431,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         "valid": valid_after_speckle + filled,
         "unknown_matcher": unknown_matcher,
         "no_candidate": no_candidate,
-        "failed_lr": int(core_timings["n_failed_lr"]),
+        "failed_lr": int(core_timings["n_failed_lr"]) + failed_independent,
         "failed_uniqueness": int(core_timings["n_failed_uniqueness"]),
         "outside": int(core_timings["n_outside"]),
         "short_range": short_range,

@@ -63,7 +63,7 @@ _PROVIDERS = ("cpu", "cuda", "auto")
 #: Costs of a match outside the right image (see SGMParams.outside_match).
 OUTSIDE_MATCHES = ("neutral", "forbidden")
 #: Left-right check variants (see SGMParams.lr_mode).
-LR_MODES = ("full", "opencv")
+LR_MODES = ("full", "opencv", "independent")
 #: Largest accepted (odd) SAD window side.
 MAX_BLOCK_SIZE = 21
 #: Largest accepted disparity range; far above any real camera and image, it only keeps the int16 kernels safe.
@@ -190,11 +190,15 @@ class SGMParams:
     lr_check : float or None
         Maximum left-right disparity difference in pixels; None = no left-right check. Default 1.0:
         it removes occluded and mismatched pixels, and ``fill_holes`` then fills them from the background.
-    lr_mode : {"full", "opencv"}
+    lr_mode : {"full", "opencv", "independent"}
         How the left-right check finds the right view's disparity. "full" (default): the right
         image's own winner over the same sums (strict). "opencv": StereoSGBM's check, which only
         rejects a pixel that loses a collision (two left pixels claiming one right pixel) at both
-        the floor and the ceiling of its disparity (lenient, keeps more pixels).
+        the floor and the ceiling of its disparity (lenient, keeps more pixels). "independent": the right
+        image's own match (the pair matched again, mirrored: its own paths), both views' measured pixels
+        given the 3x3 median first, as Pandora's "accurate" cross check; about twice the matcher's time, better
+        in every family of the benchmark (docs/matching.md, "An independent right view"). ``border_reach``
+        None means 0 with it: the check covers the left border as ``border_check`` does.
     right_view : bool
         Also return the right view's disparity (``DisparityMap.disparity_right``) when the check
         does not compute it anyway. Default False.
@@ -297,7 +301,8 @@ class SGMParams:
         "help": "largest left-right disparity difference, px, or 'off'",
         "metavar": "PX|off", "parse": parse_lr_check})
     lr_mode: str = dataclasses.field(default="full", metadata={
-        "help": "left-right check: full (strict) or opencv (StereoSGBM's collision check)", "choices": LR_MODES})
+        "help": "left-right check: full (strict), opencv (StereoSGBM's collision check) or independent (against the "
+                "right image's own match: twice the time, more accurate)", "choices": LR_MODES})
     right_view: bool = False
     subpixel: bool = dataclasses.field(default=True, metadata={"help": "integer disparities only"})
     speckle_size: int = dataclasses.field(default=100, metadata={
@@ -508,9 +513,12 @@ class SGMParams:
     @property
     def effective_border_reach(self) -> float:
         """``border_reach``, or when it is None 0.5 for a classical cost and 0 for a learned one (its candidates
-        outside the right image have a neutral cost instead of a forbidding one: ``_kernels.features``)."""
+        outside the right image have a neutral cost instead of a forbidding one: ``_kernels.features``) or with
+        ``lr_mode="independent"`` (the right image's own match checks the border too)."""
         if self.border_reach is not None:
             return self.border_reach
+        if self.lr_check is not None and self.lr_mode == "independent":  # the right image's own match checks the band
+            return 0.0
         return 0.0 if self.learned and self.outside_match == "neutral" else _BORDER_REACH
 
     @property

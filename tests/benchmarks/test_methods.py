@@ -17,7 +17,7 @@ from benchmarks.methods import (
 def test_matcher_variants_and_their_settings():
     methods = {m.name: m for m in stereo_classic_methods()}
     assert list(methods) == ["sc-default", "sc-mccnn", "sc-mccnn-net", "sc-mccnn-int8", "sc-census-8", "sc-census-3",
-                             "sc-8", "sc-sad-8"]
+                             "sc-8", "sc-independent", "sc-sad-8"]
     assert methods["sc-mccnn"].params["cost"] == "mccnn"
     assert (methods["sc-mccnn"].params["feature_census"], methods["sc-mccnn-net"].params["feature_census"]) == (None, 0.0)
     default = sc.SGMParams()
@@ -27,6 +27,8 @@ def test_matcher_variants_and_their_settings():
     assert "previous default" in methods["sc-census-8"].description
     assert methods["sc-census-3"].params["cost"] == "census" and methods["sc-census-3"].params["paths"] == default.paths
     assert methods["sc-8"].params["paths"] == 8 and methods["sc-8"].params["cost"] == default.cost
+    indep = methods["sc-independent"].params
+    assert (indep["lr_mode"], indep["paths"], indep["cost"]) == ("independent", default.paths, default.cost)
     sad = methods["sc-sad-8"].params
     assert (sad["cost"], sad["paths"], sad["lr_check"], sad["fill_holes"]) == ("sad", 8, None, False)
     assert [m.name for m in default_methods(["ocv-3way", "sc-8"])] == ["sc-8", "ocv-3way"]

@@ -146,7 +146,7 @@ class TestCliMetadata:
 
     def test_metadata_values(self):
         meta = {f.name: f.metadata for f in dataclasses.fields(SGMParams)}
-        assert meta["lr_mode"]["choices"] == ("full", "opencv") and meta["paths"]["choices"] == (3, 4, 8)
+        assert meta["lr_mode"]["choices"] == ("full", "opencv", "independent") and meta["paths"]["choices"] == (3, 4, 8)
         assert meta["census_window"]["parse"] is parse_census_window and meta["lr_check"]["parse"] is parse_lr_check
         assert meta["census_window"]["metavar"] == "WxH" and meta["lr_check"]["metavar"] == "PX|off"
         assert meta["subpixel"]["help"] == "integer disparities only"  # the help of --no-subpixel
