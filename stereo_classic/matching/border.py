@@ -28,6 +28,7 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
+from numba import njit
 
 from stereo_classic.matching.postprocess import median_measured
 
@@ -132,6 +133,23 @@ def independent_check(left: np.ndarray, right: np.ndarray, disparity: np.ndarray
                      mirrored_params(params))
     right_view = median_measured(np.ascontiguousarray(mirrored.disparity[:, ::-1]), threads=threads)
     checked = median_measured(np.ascontiguousarray(disparity), threads=threads)
-    ys, xs, agree = _agreement(checked, right_view, params.lr_check)
-    checked[ys[~agree], xs[~agree]] = np.nan
-    return checked, right_view, int(np.count_nonzero(~agree))
+    return checked, right_view, int(_reject_disagreeing(checked, right_view, float(params.lr_check)))
+
+
+@njit(cache=True, nogil=True)
+def _reject_disagreeing(d, right_view, tolerance):  # pragma: no cover - numba
+    """``_agreement`` in place: every finite pixel of ``d`` that does not agree becomes NaN; returns how many did not
+    (the same arithmetic: x - d in float64 rounded half to even, the difference in float32)."""
+    H, W = d.shape
+    nan = np.float32(np.nan)
+    n = 0
+    for y in range(H):
+        for x in range(W):
+            v = d[y, x]
+            if not np.isfinite(v):
+                continue
+            xr = np.int64(np.rint(np.float64(x) - np.float64(v)))
+            if xr < 0 or xr >= right_view.shape[1] or not abs(right_view[y, xr] - v) <= tolerance:
+                d[y, x] = nan
+                n += 1
+    return n

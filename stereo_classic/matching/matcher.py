@@ -382,8 +382,12 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     disparity = np.asarray(disparity, dtype=np.float32)
     failed_independent = 0
     if independent:  # the right image's own match, both views' 3x3 median, then the check (docs/matching.md)
-        disparity, right_own, failed_independent = independent_check(gray_left, gray_right, disparity, params, _match,
-                                                                     params.effective_threads)
+        if workspace is not None and workspace.mirror is None:
+            workspace.mirror = kernels.Workspace()
+        mirror = None if workspace is None else workspace.mirror
+        disparity, right_own, failed_independent = independent_check(
+            gray_left, gray_right, disparity, params, lambda a, b, p: _match(a, b, p, workspace=mirror),
+            params.effective_threads)
         disparity_right = right_own if params.right_view else None
     t_border = time.perf_counter()
     if labelled is not None:

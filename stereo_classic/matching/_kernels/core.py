@@ -187,6 +187,7 @@ class Workspace:
         self._key: tuple | None = None
         self._scratch: dict[str, np.ndarray] = {}
         self.handout = HandOut()
+        self.mirror: Workspace | None = None  # the mirrored pair's match (lr_mode="independent"), made on first use
 
     def fits(self, *key) -> bool:
         return self._key == key
@@ -205,7 +206,7 @@ class Workspace:
 
     def release(self) -> None:
         """Drop the buffers."""
-        self.S = self.bufs = self._key = None
+        self.S = self.bufs = self._key = self.mirror = None
         self._scratch, self.handout = {}, HandOut()
 
     def arrays(self) -> list[np.ndarray]:
@@ -221,7 +222,7 @@ class Workspace:
 
     @property
     def nbytes(self) -> int:
-        return sum(a.nbytes for a in self.arrays()) + self.handout.free_bytes()
+        return sum(a.nbytes for a in self.arrays()) + self.handout.free_bytes() + getattr(self.mirror, "nbytes", 0)
 
 
 def scratch_allocator(workspace: Workspace | None) -> Callable[[str, tuple[int, ...], Any], np.ndarray]:

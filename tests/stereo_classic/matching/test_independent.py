@@ -70,7 +70,7 @@ def test_the_check_is_the_mirrored_match_after_both_medians():
             d = expected[y, x]
             if np.isnan(d):
                 continue
-            xr = int(np.rint(x - d))
+            xr = int(np.rint(float(x) - float(d)))  # in float64, half to even
             if not (0 <= xr < W and abs(right_view[y, xr] - d) <= params.lr_check):  # NaN compares False
                 expected[y, x] = np.nan
                 failed += 1
@@ -105,6 +105,34 @@ def test_any_thread_count_gives_the_same_map():
     b = compute_disparity(left, right, num_disparities=32, lr_mode="independent", threads=2)
     np.testing.assert_array_equal(a.filled_disparity, b.filled_disparity)
     np.testing.assert_array_equal(a.filled, b.filled)
+
+
+def test_a_matcher_keeps_the_mirrored_match_buffers_and_repeats_itself():
+    from stereo_classic.matching import StereoMatcher
+
+    left, right, _ = _occluding_pair()
+    matcher = StereoMatcher(SGMParams(num_disparities=32, lr_mode="independent", threads=2))
+    a = matcher.compute(left, right)
+    mirror = matcher._workspace.mirror
+    assert mirror is not None and mirror.nbytes > 0 and matcher._workspace.nbytes > mirror.nbytes
+    b = matcher.compute(left, right)
+    assert matcher._workspace.mirror is mirror
+    np.testing.assert_array_equal(a.filled_disparity, b.filled_disparity)
+    np.testing.assert_array_equal(a.disparity, compute_disparity(left, right, matcher.params).disparity)
+
+
+def test_the_check_rounds_the_match_half_to_even_in_float64():
+    """A pixel whose match x - d falls exactly half-way between two right pixels is compared with the even one."""
+    from stereo_classic.matching.border import _agreement, _reject_disagreeing
+
+    d = np.full((1, 8), np.nan, np.float32)
+    d[0, 5] = 2.5  # x - d = 2.5 -> right pixel 2
+    d[0, 6] = 2.5  # 3.5 -> 4
+    right_view = np.array([[0, 0, 2.5, 9, 9, 0, 0, 0]], np.float32)
+    expected_ys, expected_xs, agree = _agreement(d, right_view, 1.0)
+    checked = d.copy()
+    assert _reject_disagreeing(checked, right_view, 1.0) == 1 == int((~agree).sum())
+    assert checked[0, 5] == 2.5 and np.isnan(checked[0, 6])
 
 
 def test_validity_adds_up_and_the_right_view_is_only_returned_when_asked():
