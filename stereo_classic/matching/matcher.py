@@ -373,7 +373,8 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
         feature_census=params.effective_feature_census,
         adaptive_p2=params.effective_adaptive_p2, weak_texture_gain=params.weak_texture_gain,
         uniqueness=params.uniqueness / 100.0, lr_check=None if independent else params.lr_check,
-        subpixel=params.subpixel, threads=params.effective_threads, lr_mode="full" if independent else params.lr_mode,
+        subpixel=params.subpixel, threads=params.effective_threads,
+        lr_mode="full" if params.lr_mode == "independent" else params.lr_mode,
         return_right=params.right_view and not independent, workspace=workspace,
         scratch_output=params.speckle_size > 0 or params.fill_holes,  # post-processing makes a new map of it
         on_rows=on_rows if labelled is not None else None)

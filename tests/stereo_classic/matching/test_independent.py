@@ -43,6 +43,15 @@ def test_the_mode_is_one_of_the_lr_modes_and_sets_the_border_rule():
         SGMParams(lr_mode="mirrored")
 
 
+def test_without_a_check_the_mode_does_nothing():
+    """``lr_check=None`` turns every check off, this one too: the same map as the other modes without a check."""
+    left, right, _ = _occluding_pair()
+    plain = compute_disparity(left, right, num_disparities=32, lr_check=None, threads=1)
+    indep = compute_disparity(left, right, num_disparities=32, lr_check=None, lr_mode="independent", threads=1)
+    np.testing.assert_array_equal(plain.filled_disparity, indep.filled_disparity)
+    assert "independent_check" not in indep.timings_ms
+
+
 def test_mirrored_params_leave_every_winner_a_measurement():
     p = mirrored_params(SGMParams(lr_mode="independent", median_filter=True, border_check=True, right_view=True))
     assert p.lr_check is None and p.lr_mode == "full" and p.border_reach == 0.0 and p.speckle_size == 0
