@@ -87,28 +87,14 @@ def confirm_left_border(left: np.ndarray, right: np.ndarray, disparity: np.ndarr
     tolerance, in pixels; it must not be None); ``match(left, right, params)``: the matcher, returning a
     ``DisparityMap`` (called once, on the mirrored strip, without the fill and without this check).
     """
-    H, W = left.shape
-    width = strip_width(columns, W, params)
+    width = strip_width(columns, left.shape[1], params)
     mirrored_left = np.ascontiguousarray(right[:, :width][:, ::-1])
     mirrored_right = np.ascontiguousarray(left[:, :width][:, ::-1])
     strip = match(mirrored_left, mirrored_right, strip_params(params))
     right_view = strip.disparity[:, ::-1]  # the right image's own disparity, columns 0 .. width - 1
-    ys, xs, agree = _agreement(disparity[:, :columns], right_view, params.lr_check)
-    keep = np.zeros((H, columns), bool)
-    keep[ys[agree], xs[agree]] = True
-    return keep
-
-
-def _agreement(d: np.ndarray, right_view: np.ndarray, tolerance: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(ys, xs, agree): the finite pixels of ``d`` (a left view's columns from 0) and whether the right view's
-    disparity at each one's match ``x - rint(d)`` (inside ``right_view``'s columns) is within ``tolerance`` of it."""
-    ys, xs = np.nonzero(np.isfinite(d))
-    values = d[ys, xs]
-    xr = np.rint(xs - values).astype(np.int64)
-    inside = (xr >= 0) & (xr < right_view.shape[1])
-    agree = np.zeros(values.shape, bool)
-    agree[inside] = np.abs(right_view[ys[inside], xr[inside]] - values[inside]) <= tolerance  # NaN: False
-    return ys, xs, agree
+    checked = np.array(disparity[:, :columns], dtype=np.float32)  # a copy: the check sets its disagreeing pixels NaN
+    _reject_disagreeing(checked, np.ascontiguousarray(right_view, dtype=np.float32), float(params.lr_check))
+    return np.isfinite(checked)
 
 
 def mirrored_params(params):
@@ -138,8 +124,9 @@ def independent_check(left: np.ndarray, right: np.ndarray, disparity: np.ndarray
 
 @njit(cache=True, nogil=True)
 def _reject_disagreeing(d, right_view, tolerance):  # pragma: no cover - numba
-    """``_agreement`` in place: every finite pixel of ``d`` that does not agree becomes NaN; returns how many did not
-    (the same arithmetic: x - d in float64 rounded half to even, the difference in float32)."""
+    """Set NaN, in place, every finite pixel of ``d`` (a left view's columns from 0) whose match ``x - rint(d)`` (x - d
+    in float64, rounded half to even) is outside ``right_view``'s columns or where the right view is unknown or differs
+    from ``d`` (in float32) by more than ``tolerance``; returns how many it set."""
     H, W = d.shape
     nan = np.float32(np.nan)
     n = 0

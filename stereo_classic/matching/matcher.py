@@ -282,7 +282,7 @@ def estimate_memory(image_shape: tuple[int, ...], params: SGMParams | None = Non
     if params.median_filter:
         post += median_bytes(height, width)
     strip = 0
-    if params.lr_check is not None and params.lr_mode == "independent":  # the mirrored pair's match, both medians
+    if params.independent_lr:  # the mirrored pair's match, both medians
         strip += 2 * pixels + 12 * pixels + estimate_memory((height, width), mirrored_params(params))
     if params.border_check and params.lr_check is not None and params.effective_border_reach > 0:  # the mirrored strip
         columns = min(width, math.ceil(params.effective_border_reach * params.num_disparities))
@@ -347,7 +347,7 @@ def _match(left: Any, right: Any, params: SGMParams, memory_checked: set | None 
     bound = max(abs(params.min_disparity), abs(params.min_disparity + params.num_disparities)) + 1.0
     stripe_counts: list[tuple[int, int]] = []
     labelled = None
-    independent = params.lr_check is not None and params.lr_mode == "independent"  # checked below, not by the kernels
+    independent = params.independent_lr  # checked below, not by the kernels
     if (params.speckle_size > 0 and params.fill_holes and not params.border_check and not independent
             and StripeLabels.fits(bound)):
         # the speckle filter's labels made stripe by stripe as the matcher finishes them (by a worker that would

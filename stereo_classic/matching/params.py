@@ -511,13 +511,18 @@ class SGMParams:
         return round(self.effective_p1 / _LEARNED_VERTICAL) if self.learned else self.effective_p1
 
     @property
+    def independent_lr(self) -> bool:
+        """The left-right check is made against the right image's own match: ``lr_mode="independent"`` with a check."""
+        return self.lr_check is not None and self.lr_mode == "independent"
+
+    @property
     def effective_border_reach(self) -> float:
         """``border_reach``, or when it is None 0.5 for a classical cost and 0 for a learned one (its candidates
         outside the right image have a neutral cost instead of a forbidding one: ``_kernels.features``) or with
         ``lr_mode="independent"`` (the right image's own match checks the border too)."""
         if self.border_reach is not None:
             return self.border_reach
-        if self.lr_check is not None and self.lr_mode == "independent":  # the right image's own match checks the band
+        if self.independent_lr:  # the right image's own match checks the band
             return 0.0
         return 0.0 if self.learned and self.outside_match == "neutral" else _BORDER_REACH
 

@@ -35,7 +35,8 @@ def _occluding_pair(h: int = 48, w: int = 160, seed: int = 0):
 def test_the_mode_is_one_of_the_lr_modes_and_sets_the_border_rule():
     assert "independent" in LR_MODES
     p = SGMParams(lr_mode="Independent")
-    assert p.lr_mode == "independent" and p.effective_border_reach == 0.0
+    assert p.lr_mode == "independent" and p.effective_border_reach == 0.0 and p.independent_lr
+    assert not SGMParams(lr_mode="independent", lr_check=None).independent_lr and not SGMParams().independent_lr
     assert SGMParams(lr_mode="independent", border_reach=0.5).effective_border_reach == 0.5  # as given
     assert SGMParams(lr_mode="independent", lr_check=None).effective_border_reach == 0.5  # no check: the default
     assert SGMParams().effective_border_reach == 0.5
@@ -132,13 +133,15 @@ def test_a_matcher_keeps_the_mirrored_match_buffers_and_repeats_itself():
 
 def test_the_check_rounds_the_match_half_to_even_in_float64():
     """A pixel whose match x - d falls exactly half-way between two right pixels is compared with the even one."""
-    from stereo_classic.matching.border import _agreement, _reject_disagreeing
+    from stereo_classic.matching.border import _reject_disagreeing
 
     d = np.full((1, 8), np.nan, np.float32)
     d[0, 5] = 2.5  # x - d = 2.5 -> right pixel 2
     d[0, 6] = 2.5  # 3.5 -> 4
     right_view = np.array([[0, 0, 2.5, 9, 9, 0, 0, 0]], np.float32)
-    expected_ys, expected_xs, agree = _agreement(d, right_view, 1.0)
+    xs = np.array([5, 6])  # the finite pixels, and numpy's reading of the rule: int64 - float32 in float64, rint
+    xr = np.rint(xs - d[0, xs]).astype(np.int64)
+    agree = np.abs(right_view[0, xr] - d[0, xs]) <= 1.0
     checked = d.copy()
     assert _reject_disagreeing(checked, right_view, 1.0) == 1 == int((~agree).sum())
     assert checked[0, 5] == 2.5 and np.isnan(checked[0, 6])
