@@ -63,7 +63,7 @@ def _summary_section(report: Mapping[str, Any]) -> Section:
                         + [fmt(sel[b]["median_ms"] / r["median_ms"]) for b in present])
         w, h, d = size_of[target]
         sec.tables.append(Table(["method", "ms (median)", "CPU ms (median)", "MDE/s"] + [f"x vs {b}" for b in present], rows,
-                                f"speed on {target} ({w}x{h}, {d} disparities) at {t_top} thread(s); ratio = baseline ms / method ms; "
+                                f"speed on {target} ({w}x{h}, {d} disparities, grey) at {t_top} thread(s); ratio = baseline ms / method ms; "
                                 f"CPU ms = process CPU time per call (all threads)"))
     scaling = report.get("scaling") or {}
     if scaling.get("available"):
@@ -151,7 +151,9 @@ def _machine_section(report: Mapping[str, Any]) -> Section:
         f"Every method gets the same pair (as read, BGR; StereoBM gets it in grey), the same disparity range "
         f"(min 0, num = {cfg['disparity_range']}) and block size {cfg['block_size']} (the KITTI OCV-SGBM entry fixes block 3). "
         f"Accuracy is measured on the output of the first call at {cfg['accuracy_threads']} thread(s). "
-        f"Speed: {cfg['repeat']} repetitions per method interleaved in a rotating order, after one first call timed apart "
+        f"Speed: on the grey pair (a network: the pair as read; OpenCV makes its cost from every channel of a colour pair, "
+        f"this matcher and Pandora read grey, so grey is the same work for all), "
+        f"{cfg['repeat']} repetitions per method interleaved in a rotating order, after one first call timed apart "
         f"(numba JIT compile or cache load, buffer allocation) and excluded; median with min and max. "
         f"Threads: {cfg['threads']} (cv2.setNumThreads, the matcher's `threads`, onnxruntime intra-op threads)."
     )
@@ -171,7 +173,9 @@ def _speed_section(report: Mapping[str, Any], figures: dict[str, str]) -> Sectio
     sec = Section("Speed")
     sec.paragraphs.append("ms per pair: median [min-max] of the interleaved repetitions; MDE/s = million disparity estimates per "
                           "second (W x H x D / s) at the median; first = the first call (JIT compile or cache load, allocation), excluded. "
-                          "Ratios are the baseline's median divided by the method's, same input and thread count, same run.")
+                          "Ratios are the baseline's median divided by the method's, same input and thread count, same run. "
+                          "Every classical method is timed on the grey pair (OpenCV's StereoSGBM makes its cost from every "
+                          "channel of a colour pair; this matcher and Pandora read grey), a network on the pair as read.")
     inputs = list(dict.fromkeys(r["input"] for r in rows))
     threads = sorted({r["threads"] for r in rows})
     for inp in inputs:

@@ -206,7 +206,7 @@ def scaling_threads(cores: int | None = None) -> tuple[int, ...]:
 def thread_scaling(left: np.ndarray, right: np.ndarray, *, num_disparities: int = 128, block_size: int = 5,
                    threads: tuple[int, ...] | None = None, repeat: int = 5, methods: tuple[str, ...] = SCALING_METHODS,
                    name: str = "", pause_s: float = 0.02, on_step=None) -> dict:
-    """Time each method at each thread count on one pair: ms, speed-up, efficiency, CPU s per call, same output.
+    """Time each method at each thread count on one pair, in grey: ms, speed-up, efficiency, CPU s per call, same output.
 
     Each method is prepared once per thread count (a matcher of its own, its buffers alive until the end: for the
     default 3 paths about 16 MB at 1242x375x128 each); its first call is timed apart (compile, allocation) and its
@@ -224,8 +224,10 @@ def thread_scaling(left: np.ndarray, right: np.ndarray, *, num_disparities: int 
         thread, ``identical`` = output bit-identical (NaN equal) to the
         1-thread output, ``first_call_ms``), the input's size and ``how``.
     """
-    from benchmarks.methods import Setup, default_methods, output_views
+    from benchmarks.methods import Setup, default_methods, output_views, timing_pair
     from benchmarks.timing import time_interleaved
+
+    left, right = timing_pair(left, right)  # grey: the same work for every method (timing_pair)
 
     if isinstance(repeat, bool) or not isinstance(repeat, int) or repeat < 1:
         raise ValueError(f"`repeat` must be an integer >= 1, got {repeat!r}")
@@ -288,7 +290,7 @@ def thread_scaling(left: np.ndarray, right: np.ndarray, *, num_disparities: int 
         "available": True, "input": name, "width": int(shape[1]), "height": int(shape[0]),
         "num_disparities": int(num_disparities), "block_size": int(block_size), "cores": cores,
         "threads": list(counts), "repeat": repeat, "methods": [m.name for m in chosen], "rows": rows,
-        "how": (f"first call of each method and thread count apart, then {repeat} calls of every (method, thread "
+        "how": (f"the grey pair (cv2.COLOR_BGR2GRAY of a colour one); first call of each method and thread count apart, then {repeat} calls of every (method, thread "
                 f"count) interleaved in one rotation ({pause_s * 1e3:.0f} ms untimed pause before each); CPU s = time.process_time() delta around each call (all threads of the "
                 "process); efficiency = speed-up / min(threads, usable cores); identical = np.array_equal(output, "
                 "1-thread output, equal_nan=True)"),

@@ -77,3 +77,35 @@ def test_family_means_never_mix_families():
     assert list(means) == ["Middlebury-style", "driving"]
     assert means["driving"]["m"]["full"]["all"]["bad2"] == 30.0 and means["driving"]["m"]["scenes"] == 2
     assert means["Middlebury-style"]["m"]["full"]["all"]["bad2"] == 30.0 and "x" not in means["driving"]
+
+
+def test_speed_is_timed_on_the_grey_pair_and_accuracy_on_the_pair_as_read(monkeypatch, tmp_path):
+    """OpenCV makes its cost from every channel of a colour pair, this matcher from grey: the timed calls of a
+    classical method get the grey pair (the same work for all), a network's the pair as read; the scored output
+    comes from the first call, on the pair as read."""
+    rng = np.random.default_rng(5)
+    colour = rng.integers(0, 255, (24, 40, 3), dtype=np.uint8)
+    scene = BenchScene("fake", colour, colour.copy(), gt_disparity=np.full((24, 40), 8.0, np.float32),
+                       source="/data/middlebury2003/fake", family="")
+    seen: dict[str, list[int]] = {}
+
+    def recording(name: str, family: str) -> Method:
+        def factory(setup):
+            def run(left, right):
+                assert left.ndim == right.ndim
+                seen.setdefault(name, []).append(left.ndim)
+                return np.full(left.shape[:2], 8.0, np.float32)
+
+            return run
+
+        return Method(name, family, "records what it is given", factory)
+
+    methods = [recording("classic", "opencv"), recording("net", "onnx")]
+    monkeypatch.setattr("benchmarks.run.default_methods", lambda names=None: methods)
+    monkeypatch.setattr("benchmarks.run.load_scenes", lambda data_dir, names=None: [scene])
+    report, _ = run_benchmark(BenchConfig(out_dir=tmp_path, repeat=2, quick=True, memory=False, objects=False,
+                                          figures=False, scaling=False, progress=False, threads=(1,)))
+    # first call (scored) on colour, one untimed call on grey (a matcher made for colour made again), 2 timed
+    assert seen["classic"] == [3, 2, 2, 2]
+    assert seen["net"] == [3, 3, 3]
+    assert report["accuracy"]["fake"]["classic"]["full"]["dense"]["bad2"] == 0.0
