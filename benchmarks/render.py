@@ -494,7 +494,7 @@ def _speed_line(report: Mapping[str, Any], size: tuple[int, int, int] = (1242, 3
     me = sel["sc-default"]["median_ms"]
     parts = [f"`{b}` {sel[b]['median_ms']:.1f} ms{' single-threaded' if b in SINGLE_THREADED else ''} "
              f"({sel[b]['median_ms'] / me:.2f}x)" for b in README_METHODS[1:] if b in sel]
-    return (f"**Speed** at {size[0]}x{size[1]}x{size[2]}, {t} thread(s), median: `sc-default` {me:.1f} ms; "
+    return (f"**Speed** at {size[0]}x{size[1]}x{size[2]}, grey pair, {t} thread(s), median: `sc-default` {me:.1f} ms; "
             + ", ".join(parts) + " (x = their ms / ours).")
 
 
@@ -513,7 +513,7 @@ def _scaling_line(report: Mapping[str, Any]) -> str | None:
     top = counts[-1]
     cpu = by.get(("sc-default", top), {}).get("cpu_ratio")
     same = all(r["identical"] for r in sc["rows"] if r["method"] == "sc-default")
-    return (f"**Thread scaling** on the KITTI pair ({sc['cores']} usable cores), threads {' / '.join(map(str, counts))}: "
+    return (f"**Thread scaling** on the KITTI pair in grey ({sc['cores']} usable cores), threads {' / '.join(map(str, counts))}: "
             + "; ".join(parts) + f". `sc-default` CPU time per call at {top} threads: {fmt(cpu)}x that at 1 thread; output "
             f"bit-identical at every thread count: {'yes' if same else 'no'}.")
 

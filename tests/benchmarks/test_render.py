@@ -50,12 +50,12 @@ def test_readme_block_numbers_come_from_the_report():
     row = next(line for line in text.splitlines() if line.startswith("| driving (2) | sc-default |"))
     assert row == (f"| driving (2) | sc-default | {mean['dense']['bad2']:.2f} | {mean['all']['bad2']:.2f} | "
                    f"{mean['valid']['bad2']:.2f} | {mean['valid']['density']:.1f} |")
-    assert "**Speed** at 1242x375x128, 2 thread(s), median: `sc-default` 40.0 ms; `ocv-3way` 50.0 ms (1.25x)" in text
+    assert "**Speed** at 1242x375x128, grey pair, 2 thread(s), median: `sc-default` 40.0 ms; `ocv-3way` 50.0 ms (1.25x)" in text
     assert "at 640x480x64" not in text  # no VGA rows in this report: no VGA line
     vga = [dict(r, input="640x480x64", kind="synthetic", width=640, height=480, num_disparities=64,
                 median_ms=r["median_ms"] / 4) for r in report["speed"]]
     text = readme_markdown({**report, "speed": report["speed"] + vga})
-    assert "**Speed** at 640x480x64, 2 thread(s), median: `sc-default` 10.0 ms; `ocv-3way` 12.5 ms (1.25x)" in text
+    assert "**Speed** at 640x480x64, grey pair, 2 thread(s), median: `sc-default` 10.0 ms; `ocv-3way` 12.5 ms (1.25x)" in text
     assert ("threads 1 / 2 / 4 / 8: `sc-default` 80.0 / 40.0 / 40.0 / 40.0 ms (speed-up 1.00 / 2.00 / 2.00 / 2.00; "
             "fastest calls 1.00 / 1.41 / 1.41 / 1.41)") in text
     assert "bit-identical at every thread count: yes" in text
