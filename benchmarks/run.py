@@ -167,11 +167,13 @@ def _first_calls(methods: Sequence[Method], setup: Setup, left: np.ndarray, righ
             outputs[m.name] = output_views(out, left.shape[:2])  # (output, measured)
             # Timed on the grey pair (the outputs above come from the pair as read): this matcher and Pandora read
             # grey whatever they get, while OpenCV's StereoSGBM makes its cost from every channel of a colour pair
-            # (about 1.4x its grey time at 1242x375x128): only grey times compare the same work. A network keeps
+            # (1.3-1.4x its grey time at 1242x375x128): only grey times compare the same work. A network keeps
             # its input.
             pair = (left, right) if m.family == "onnx" else grey
-            if pair[0] is not left:
-                runner(*pair)  # untimed: OpenCV's matcher, made for the colour pair's channels, is made again
+            if pair[0] is not left and m.family != "peer":
+                # untimed: OpenCV's matcher, made for the colour pair's channels, is made again, and a matcher's
+                # buffers for the new input made; a peer (seconds a call, no state) is timed once anyway
+                runner(*pair)
             runners[m.name] = (lambda r=runner, p=pair: r(*p))
         except Exception as exc:  # noqa: BLE001 - one failing method must not stop the others; reported
             errors[m.name] = f"{type(exc).__name__}: {exc}"
