@@ -45,3 +45,25 @@ def test_thread_scaling_rejects_bad_arguments():
         thread_scaling(img, img, repeat=0)
     with pytest.raises(ValueError, match="`threads` must be integers >= 1"):
         thread_scaling(img, img, threads=(0, 2))
+
+
+def test_thread_scaling_times_the_grey_pair(monkeypatch):
+    """OpenCV makes its cost from every channel of a colour pair, the matcher from grey: the scaling table gives
+    every method the grey pair (benchmarks.methods.timing_pair), first call included."""
+    from benchmarks.methods import Method
+
+    seen: list[int] = []
+
+    def factory(setup):
+        def run(left, right):
+            seen.append(left.ndim)
+            return np.zeros(left.shape[:2], np.float32)
+
+        return run
+
+    monkeypatch.setattr("benchmarks.methods.default_methods",
+                        lambda names=None: [Method("rec", "opencv", "records what it is given", factory)])
+    colour = np.random.default_rng(2).integers(0, 255, (16, 32, 3), dtype=np.uint8)
+    res = thread_scaling(colour, colour.copy(), num_disparities=16, threads=(1,), repeat=2, methods=("rec",),
+                         pause_s=0.0)
+    assert seen and set(seen) == {2} and res["rows"][0]["identical"]
