@@ -300,17 +300,17 @@ def thread_scaling(left: np.ndarray, right: np.ndarray, *, num_disparities: int 
 def padding_table(left: np.ndarray, right: np.ndarray, *, disparities=(16, 32, 48, 64, 80, 96, 112, 128),
                   threads: int = 1, paths: int = 3, cost: str = "census+grad", repeat: int = 11) -> list[dict]:
     """Per number of disparities: ms of the matcher (its defaults but ``paths`` and ``cost``) with the kernels'
-    padding and without it (``DISPARITY_BLOCK`` and the least number set to 1 for those calls), both prepared
+    padding and without it (``DISPARITY_BLOCK``, ``ONE_SWEEP_BLOCK`` and the least number set to 1 for those calls), both prepared
     once and then called in turn ``repeat`` times (:func:`benchmarks.timing.time_interleaved`), and whether the
     two disparity maps are identical."""
     import stereo_classic as sc
     from benchmarks.timing import time_interleaved
     from stereo_classic.matching._kernels import core
 
-    saved = (core.DISPARITY_BLOCK, core.MIN_DISPARITIES_ONE_SWEEP)
+    saved = (core.DISPARITY_BLOCK, core.ONE_SWEEP_BLOCK, core.MIN_DISPARITIES_ONE_SWEEP)
 
     def padding(on: bool) -> None:
-        core.DISPARITY_BLOCK, core.MIN_DISPARITIES_ONE_SWEEP = saved if on else (1, 1)
+        core.DISPARITY_BLOCK, core.ONE_SWEEP_BLOCK, core.MIN_DISPARITIES_ONE_SWEEP = saved if on else (1, 1, 1)
 
     rows = []
     try:

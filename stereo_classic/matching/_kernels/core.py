@@ -61,7 +61,8 @@ __all__ = ["sgm_match", "Workspace", "memory_bytes", "cost_volume", "sum_volume"
            "sgm_pass", "PassSettings", "PassPlan", "ThreadBuffers", "PassOutputs",
            "ALL_PATHS", "FOUR_PATHS", "THREE_PATHS", "PATH_NAMES", "PATH_STEPS", "PATH_MASKS",
            "STRIPE_ROWS", "WARMUP_ROWS", "stripes", "usable_cpus", "run_chained", "run_stripes", "run_tasks",
-           "scratch_allocator", "workers_for", "DISPARITY_BLOCK", "MIN_DISPARITIES_ONE_SWEEP", "padded_disparities"]
+           "scratch_allocator", "workers_for", "DISPARITY_BLOCK", "MIN_DISPARITIES_ONE_SWEEP", "ONE_SWEEP_BLOCK",
+           "padded_disparities"]
 
 #: ``paths`` (the number of aggregation directions) -> the direction mask of the passes.
 PATH_MASKS = {8: ALL_PATHS, 4: FOUR_PATHS, 3: THREE_PATHS}
@@ -81,30 +82,28 @@ STRIPE_ROWS = 48
 WARMUP_ROWS = 16
 
 
-#: The kernels hold the disparities of a pixel in whole vector blocks: ``padded_disparities``. LLVM turns each
-#: loop over a pixel's disparities into vector loops and a remainder that runs element by element; the remainder
-#: costs more than computing padding. The indices past the range hold the invalid cost: they never win and never
-#: change a path value in range, so the output is the same bit for bit (tested).
+#: The kernels hold the disparities of a pixel in whole blocks: ``padded_disparities``. The indices past the range hold
+#: the invalid cost: they never win and never change a path value in range, so the output is the same bit for bit
+#: (tested). The volume kernels (4 and 8 paths) pad to DISPARITY_BLOCK; the one-sweep kernel (paths=3), compiled
+#: once per D (``tags``), to ONE_SWEEP_BLOCK, at least MIN_DISPARITIES_ONE_SWEEP (one 512-bit vector).
 DISPARITY_BLOCK = 32
-#: The least disparities per pixel of the one-sweep kernel (paths=3): below 64 its loops miss their main vector
-#: loop (64 int16 an iteration on AVX-512); padding is cheap there (row buffers in cache), while the volume
-#: kernels (4 and 8 paths) write every padded disparity to the sum volume and keep DISPARITY_BLOCK.
-MIN_DISPARITIES_ONE_SWEEP = 64
+ONE_SWEEP_BLOCK = 16
+MIN_DISPARITIES_ONE_SWEEP = 32
 
 
 def padded_disparities(num_disparities: int, paths: int = 3) -> int:
     """The disparities per pixel in the kernels' buffers: ``num_disparities`` rounded up to DISPARITY_BLOCK (paths 3:
-    at least MIN_DISPARITIES_ONE_SWEEP). Measured on the KITTI pair at 1 thread, ms, as it is / padded (Zen 4,
-    interleaved in one process; the default matcher): 16: 72 / 54, 32: 67 / 53, 48: 78 / 49, 64: 49 / 49,
-    80: 64 / 64, 96: 63 / 64, 112: 72 / 68, 128: 72 / 71; census 8 paths: 16: 155 / 68, 32 and 96 the same.
+    to ONE_SWEEP_BLOCK, at least MIN_DISPARITIES_ONE_SWEEP). The one-sweep kernel with 32 / 16 against the 64 / 32 it
+    had (KITTI pair, 2 threads, ms medians of 11 alternations, the same output): 16: 20.7 -> 16.1, 32: 20.6 -> 15.9,
+    48: 20.0 -> 16.3, 80: 22.9 -> 20.7, 112: 32.7 -> 24.9 (docs/matching.md, "Disparities in whole vector blocks").
 
     >>> [padded_disparities(n) for n in (16, 48, 64, 80, 96, 112, 128)]
-    [64, 64, 64, 96, 96, 128, 128]
+    [32, 48, 64, 80, 96, 112, 128]
     >>> [padded_disparities(n, paths=8) for n in (16, 48, 64)]
     [32, 64, 64]
     """
-    block = DISPARITY_BLOCK
-    least = MIN_DISPARITIES_ONE_SWEEP if paths == 3 else block
+    block = ONE_SWEEP_BLOCK if paths == 3 else DISPARITY_BLOCK
+    least = MIN_DISPARITIES_ONE_SWEEP if paths == 3 else DISPARITY_BLOCK
     return max(least, -(-int(num_disparities) // block) * block)
 
 

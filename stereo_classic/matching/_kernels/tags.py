@@ -11,7 +11,7 @@ from numba import njit
 
 __all__ = ["disparity_tag", "tag_disparities"]
 
-#: ``disparity_tag``'s unit: the padded disparities per pixel are whole multiples of it (see core.DISPARITY_BLOCK).
+#: ``disparity_tag``'s unit: D is written as D // 32 and D % 32 (any D; see core.padded_disparities).
 _TAG_BLOCK = 32
 
 

@@ -911,12 +911,14 @@ def test_disparity_padding_changes_nothing(paths, cost, lr_mode, monkeypatch):
     pen = dict(p1=28, p2=112) if cost != "sad" else dict(p1=200, p2=800)
     for dmin, n in ((0, 5), (-4, 40), (3, 64), (0, 70), (-10, 100), (-20, 8)):
         padded = core.padded_disparities(n, paths)
-        assert padded % core.DISPARITY_BLOCK == 0 and padded >= n
+        block = core.ONE_SWEEP_BLOCK if paths == 3 else core.DISPARITY_BLOCK
+        assert padded % block == 0 and padded >= max(n, core.MIN_DISPARITIES_ONE_SWEEP if paths == 3 else block)
         kw = dict(cost=cost, min_disparity=dmin, num_disparities=n, paths=paths, uniqueness=0.05, lr_check=1.0,
                   lr_mode=lr_mode, return_right=True, threads=2, **pen)
         d, dr, t = core.sgm_match(left, right, **kw)
         with monkeypatch.context() as m:
             m.setattr(core, "DISPARITY_BLOCK", 1)
+            m.setattr(core, "ONE_SWEEP_BLOCK", 1)
             m.setattr(core, "MIN_DISPARITIES_ONE_SWEEP", 1)
             assert core.padded_disparities(n, paths) == n
             d1, dr1, t1 = core.sgm_match(left, right, **kw)
