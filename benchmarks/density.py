@@ -65,9 +65,9 @@ def removal_masks(scene: BenchScene, **overrides: Any) -> tuple[np.ndarray, dict
     has = np.isfinite(raw)
     border = np.zeros_like(has)
     if params.effective_border_reach > 0:  # columns whose reach is short: the rule the matcher applies
-        from stereo_classic.matching.border import column_reach as _reach, short_reach as _short_reach
+        from stereo_classic.matching.border import column_reach, short_reach
 
-        border[:, _short_reach(_reach(raw.shape[1], params), params)] = True
+        border[:, short_reach(column_reach(raw.shape[1], params), params)] = True
     removed = {"lr+uniqueness": has & ~checked, "border": checked & border, "speckle": checked & ~border & ~kept}
     return raw, removed, kept
 

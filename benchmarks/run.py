@@ -165,10 +165,7 @@ def _first_calls(methods: Sequence[Method], setup: Setup, left: np.ndarray, righ
             out = runner(left, right)
             first[m.name] = (time.perf_counter() - t0) * 1000.0
             outputs[m.name] = output_views(out, left.shape[:2])  # (output, measured)
-            # Timed on the grey pair (the outputs above come from the pair as read): this matcher and Pandora read
-            # grey whatever they get, while OpenCV's StereoSGBM makes its cost from every channel of a colour pair
-            # (1.3-1.4x its grey time at 1242x375x128): only grey times compare the same work. A network keeps
-            # its input.
+            # timed on the grey pair (timing_pair: the same work for every classical method), a network on its input
             pair = (left, right) if m.family == "onnx" else grey
             if pair[0] is not left and m.family != "peer":
                 # untimed: OpenCV's matcher, made for the colour pair's channels, is made again, and a matcher's

@@ -100,8 +100,7 @@ def confirm_left_border(left: np.ndarray, right: np.ndarray, disparity: np.ndarr
 def mirrored_params(params):
     """The ``SGMParams`` of the right image's own match for ``independent_check``: the caller's, with no check, border
     rule, speckle filter, fill or median of its own (every winner a measurement) and no right view."""
-    return params.replace(lr_check=None, lr_mode="full", border_check=False, border_reach=0.0, speckle_size=0,
-                          fill_holes=False, median_filter=False, right_view=False)
+    return strip_params(params).replace(lr_check=None, lr_mode="full", speckle_size=0, median_filter=False)
 
 
 def independent_check(left: np.ndarray, right: np.ndarray, disparity: np.ndarray, params, match: Callable,
