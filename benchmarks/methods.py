@@ -273,7 +273,7 @@ _MATCHER_VARIANTS: tuple[tuple[str, dict[str, Any], str], ...] = (
     ("sc-8", {"paths": 8}, "the default with 8 paths"),
     ("sc-independent", {"lr_mode": "independent"},
      "the default with the left-right check against the right image's own match (the pair matched again, mirrored; "
-     "1.7-1.9x the default's time)"),
+     "1.5-1.9x the default's time)"),
     ("sc-sad-8", {"cost": "sad", "paths": 8, "lr_check": None, "fill_holes": False},
      "the like-for-like with OpenCV (SAD-style cost, 8 paths like MODE_HH, no fill)"),
 )

@@ -472,7 +472,7 @@ def summary_markdown(report: Mapping[str, Any]) -> str:
 
 
 #: Methods of the README table: the default against every OpenCV SGBM mode and the accuracy peer (when installed), and
-#: the default's most accurate setting (``lr_mode="independent"``, about 1.7 times its time).
+#: the default's most accurate setting (``lr_mode="independent"``, 1.5-1.9 times its time).
 README_METHODS: tuple[str, ...] = ("sc-default", "sc-independent", "ocv-sgbm", "ocv-hh", "ocv-3way", "ocv-hh4", "pandora")
 #: Methods that run on one thread whatever the benchmark's thread count (their times say so).
 SINGLE_THREADED: frozenset[str] = frozenset({"pandora"})

@@ -196,7 +196,7 @@ class SGMParams:
         rejects a pixel that loses a collision (two left pixels claiming one right pixel) at both
         the floor and the ceiling of its disparity (lenient, keeps more pixels). "independent": the right
         image's own match (the pair matched again, mirrored: its own paths), both views' measured pixels
-        given the 3x3 median first, as Pandora's "accurate" cross check; 1.7-1.9 times the matcher's time, better
+        given the 3x3 median first, as Pandora's "accurate" cross check; 1.5-1.9 times the matcher's time, better
         in every family of the benchmark (docs/matching.md, "An independent right view"). ``border_reach``
         None means 0 with it: the check covers the left border as ``border_check`` does.
     right_view : bool
@@ -302,7 +302,7 @@ class SGMParams:
         "metavar": "PX|off", "parse": parse_lr_check})
     lr_mode: str = dataclasses.field(default="full", metadata={
         "help": "left-right check: full (strict), opencv (StereoSGBM's collision check) or independent (against the "
-                "right image's own match: 1.7-1.9x the time, more accurate)", "choices": LR_MODES})
+                "right image's own match: 1.5-1.9x the time, more accurate)", "choices": LR_MODES})
     right_view: bool = False
     subpixel: bool = dataclasses.field(default=True, metadata={"help": "integer disparities only"})
     speckle_size: int = dataclasses.field(default=100, metadata={
