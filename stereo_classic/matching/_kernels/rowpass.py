@@ -13,6 +13,10 @@ The directions are OpenCV MODE_SGBM_3WAY's: from the left, from above, from the 
 * ``select.right_view_row`` finds the right view's winners and ``select.select_row`` resolves the row
   (winner-takes-all, uniqueness, subpixel, left-right check).
 
+Where D is a multiple of 32 a pixel's path updates are made on whole LLVM vectors (:mod:`.pathvec`: the previous
+vector loaded once, its neighbours at d +- 1 made in registers), elsewhere by the loops over the disparities; the
+same values either way.
+
 Per thread this touches about 5 x W x D x 2 bytes (1.6 MB at 1242 x 128), which stays in L2, against a
 H x W x D volume written and read back by the two-pass kernel. The values are those of
 :func:`.aggregate.sgm_pass` run forward (left, top) then backward (right) over the same stripe and warm-up rows,
@@ -34,6 +38,7 @@ from stereo_classic.matching._kernels.cost import (
     row_cost,
 )
 from stereo_classic.matching._kernels.intrinsics import add16, umin16
+from stereo_classic.matching._kernels.pathvec import right_path_sum, top_and_left, top_path, vector_paths
 from stereo_classic.matching._kernels.select import right_view_row, select_row
 from stereo_classic.matching._kernels.tags import disparity_tag, tag_disparities
 
@@ -98,10 +103,9 @@ class RowPassBuffers(NamedTuple):
     min_v : (W + H + 1,) int16
         Minimum of each top-path vector.
     path_h : (2 * E,) int16
-        The horizontal path's previous and current vector.
-    min_h : (2,) int16
-    path_r, min_r : (2 * E,), (2,) int16
-        The same for the right path (the row above's, swept beside the left path of the row: its own arrays, as
+        The horizontal path's previous and current vector (their minima are carried in registers).
+    path_r : (2 * E,) int16
+        The same for the right path (the row above's, swept beside the left path of the row: its own array, as
         two slots of ``path_h`` cost the loops their speed-up).
     row_min : (W,) int16
         Minimum complete sum per pixel of the row.
@@ -124,9 +128,7 @@ class RowPassBuffers(NamedTuple):
     path_v: np.ndarray
     min_v: np.ndarray
     path_h: np.ndarray
-    min_h: np.ndarray
     path_r: np.ndarray
-    min_r: np.ndarray
     row_min: np.ndarray
     k_index: np.ndarray
     right_sums: np.ndarray
@@ -165,7 +167,7 @@ def row_pass_buffers(H: int, W: int, D: int, warm_rows: int = 0) -> RowPassBuffe
     return RowPassBuffers(
         costs=aligned_empty((warm_rows + 2, W * D), np.int16), srow=aligned_empty((2, W * D), np.int16),
         path_v=path_slots(slots, D), min_v=np.zeros(slots, np.int16), path_h=path_slots(2, D),
-        min_h=np.zeros(2, np.int16), path_r=path_slots(2, D), min_r=np.zeros(2, np.int16),
+        path_r=path_slots(2, D),
         row_min=aligned_empty(W, np.int16), k_index=np.arange(D, dtype=np.int16),
         right_sums=aligned_empty(W + D - 1, np.int16), right_k=aligned_empty(W + D - 1, np.int16),
         best=np.empty(W, np.int64), counts=np.zeros(3, np.int64),
@@ -176,7 +178,7 @@ def row_pass_bytes(H: int, W: int, D: int, warm_rows: int = 0) -> int:
     """Bytes of ``row_pass_buffers(H, W, D, warm_rows)``."""
     E = slot_size(D)
     slots = W + H + 1
-    return (2 * (warm_rows + 4) * W * D + 2 * slots * E + 2 * slots + 2 * 2 * 2 * E + 8 + 2 * W + 2 * D
+    return (2 * (warm_rows + 4) * W * D + 2 * slots * E + 2 * slots + 2 * 2 * 2 * E + 2 * W + 2 * D
             + 2 * 2 * (W + D - 1) + 8 * W + 24 + 2 * 2 * W)
 
 
@@ -216,9 +218,7 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     PV = bufs.path_v
     MV = bufs.min_v
     PH = bufs.path_h
-    MH = bufs.min_h
     PR = bufs.path_r
-    MR = bufs.min_r
     nsrow = bufs.row_min
     kidx = bufs.k_index
     rv = bufs.right_sums
@@ -227,6 +227,7 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     Sf = out.sums
     D = tag_disparities(bufs.tag)  # len(bufs.k_index), as a constant: compiled once per D
     E = slot_size(D)
+    vec = vector_paths(bufs.tag)  # whole-vector path updates (pathvec): a constant, the other branch is dropped
     top = np.int16(-1)  # 65535 read as unsigned: where the vectors' minima (umin16, non-negative values) start
     zero = np.int16(0)
     n_rows = plan.n_rows
@@ -255,8 +256,8 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
         for k in range(D):
             PH[k + 1] = zero
             PR[k + 1] = zero
-        MH[0] = zero
-        MR[0] = zero
+        mh_run = zero  # the left / right path's previous minimum, carried in a register
+        mr_run = zero
         yp = y - 1
         for i in range(W):
             if prev:  # --- row r - 1, right to left: the right path, the complete sums and their minimum
@@ -265,20 +266,23 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
                 p1, p2 = pixel_penalties(p1_32, p2_32, pscale[yp, x])
                 rhs = i & 1
                 whs = 1 - rhs
-                mh = MR[rhs]
+                mh = mr_run
                 qh = add16(mh, _p2_at(limg, yp, x, yp, x + 1, p1, p2, adaptive) if adaptive else p2)
                 wh = whs * E
                 rh = rhs * E
-                nh = top
-                ns = top
-                for k in range(D):
-                    vh = _lr(PR, rh, crow_p[_U(cb + k)], mh, qh, p1, k)
-                    PR[_U(wh + 1 + k)] = vh
-                    nh = umin16(nh, vh)
-                    sm = add16(vh, srow_p[_U(cb + k)])
-                    srow_p[_U(cb + k)] = sm
-                    ns = umin16(ns, sm)
-                MR[whs] = nh
+                if vec:
+                    nh, ns = right_path_sum(PR, rh, wh, crow_p, cb, mh, qh, p1, srow_p, bufs.tag)
+                else:
+                    nh = top
+                    ns = top
+                    for k in range(D):
+                        vh = _lr(PR, rh, crow_p[_U(cb + k)], mh, qh, p1, k)
+                        PR[_U(wh + 1 + k)] = vh
+                        nh = umin16(nh, vh)
+                        sm = add16(vh, srow_p[_U(cb + k)])
+                        srow_p[_U(cb + k)] = sm
+                        ns = umin16(ns, sm)
+                mr_run = nh
                 nsrow[x] = ns
             if cur:  # --- row r, left to right: the top path (slot w = x - r + n_rows, predecessor at w + 1), left
                 x = i
@@ -291,7 +295,9 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
                 mv = MV[wvs + 1]
                 qv = add16(mv, _p2_at(limg, y, x, y - 1, x, p1v, p2, adaptive) if adaptive else p2)
                 nv = top
-                if warming:
+                if warming and vec:
+                    nv = top_path(PV, rvb, wv, crow, cb, mv, qv, p1v, bufs.tag)
+                elif warming:
                     for k in range(D):
                         vv = _lr(PV, rvb, crow[_U(cb + k)], mv, qv, p1v, k)
                         PV[_U(wv + 1 + k)] = vv
@@ -299,21 +305,25 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
                 else:
                     rhs = x & 1
                     whs = 1 - rhs
-                    mh = MH[rhs]
+                    mh = mh_run
                     qh = add16(mh, _p2_at(limg, y, x, y, x - 1, p1, p2, adaptive) if adaptive else p2)
                     wh = whs * E
                     rh = rhs * E
-                    nh = top
-                    for k in range(D):
-                        c = crow[_U(cb + k)]
-                        vv = _lr(PV, rvb, c, mv, qv, p1v, k)
-                        vh = _lr(PH, rh, c, mh, qh, p1, k)
-                        PV[_U(wv + 1 + k)] = vv
-                        PH[_U(wh + 1 + k)] = vh
-                        nv = umin16(nv, vv)
-                        nh = umin16(nh, vh)
-                        srow[_U(cb + k)] = add16(vv, vh)
-                    MH[whs] = nh
+                    if vec:
+                        nv, nh = top_and_left(PV, rvb, wv, PH, rh, wh, crow, cb, mv, qv, p1v, mh, qh, p1, srow,
+                                              bufs.tag)
+                    else:
+                        nh = top
+                        for k in range(D):
+                            c = crow[_U(cb + k)]
+                            vv = _lr(PV, rvb, c, mv, qv, p1v, k)
+                            vh = _lr(PH, rh, c, mh, qh, p1, k)
+                            PV[_U(wv + 1 + k)] = vv
+                            PH[_U(wh + 1 + k)] = vh
+                            nv = umin16(nv, vv)
+                            nh = umin16(nh, vh)
+                            srow[_U(cb + k)] = add16(vv, vh)
+                    mh_run = nh
                 MV[wvs] = nv
         if not prev:
             continue

@@ -1,0 +1,162 @@
+"""A pixel's path updates as whole LLVM vectors of its D disparities, for the one-sweep kernel (:mod:`.rowpass`).
+
+``aggregate._lr`` reads the previous vector three times from memory: at d and one disparity either side. The two
+shifted loads start two bytes off the vector's cache line, so each spans two lines, and the horizontal paths read
+them from a vector stored by the previous pixel, which the store cannot forward to a load it only partly covers.
+Here the previous vector is loaded once, from its aligned slot, as one ``<D x i16>`` value, and its neighbours at
+d - 1 and d + 1 are made from it in registers (LLVM's shuffles: ``vpalignr`` / ``vpermt2w`` on AVX-512); the sentinel
+either end of the range is a constant. The arithmetic is ``_lr``'s, in the same 16-bit operations (wrapping adds,
+signed minima, the vector's minimum unsigned), so every value is the same bit for bit (tested against the loops).
+
+The functions are numba intrinsics; D comes from the buffers' ``tags.disparity_tag`` type, so each range gets its
+own code, as the kernels do. :func:`vector_paths` says where they are used: D a whole number of 512-bit vectors of
+int16 (a multiple of 32), where LLVM splits the vector into whole registers (measured: docs/matching.md, "Tenth
+round").
+"""
+
+from __future__ import annotations
+
+from llvmlite import ir
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from stereo_classic.matching._kernels.aggregate import _SENTINEL
+from stereo_classic.matching._kernels.tags import _TAG_BLOCK
+
+__all__ = ["VECTOR_BLOCK", "right_path_sum", "top_and_left", "top_path", "vector_paths"]
+
+#: ``vector_paths`` holds for D a multiple of this (int16 lanes of one 512-bit register).
+VECTOR_BLOCK = 32
+
+_I16 = ir.IntType(16)
+_I32 = ir.IntType(32)
+
+
+def _tag_d(tag: types.Type) -> int:
+    """D of a ``disparity_tag`` type (the typing-time twin of ``tags.tag_disparities``)."""
+    if not isinstance(tag, types.BaseTuple) or len(tag) != 2:
+        raise TypeError(f"`tag` must be a tags.disparity_tag(D), got {tag}")
+    return len(tag[0]) * _TAG_BLOCK + len(tag[1])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def vector_paths(tag):  # pragma: no cover - numba
+    """Whether the one-sweep kernel updates its paths with this module's intrinsics for the tag's D (a constant where
+    the kernel is compiled, so the other branch is dropped)."""
+    return len(tag[1]) == 0 and len(tag[0]) > 0  # D // 32 whole blocks of VECTOR_BLOCK (== _TAG_BLOCK) lanes
+
+
+def _vector_ptr(context, builder, arrty, arr, index, D):
+    data = context.make_array(arrty)(context, builder, arr).data
+    return builder.bitcast(builder.gep(data, [index]), ir.PointerType(ir.VectorType(_I16, D)))
+
+
+def _load(context, builder, arrty, arr, index, D):
+    return builder.load(_vector_ptr(context, builder, arrty, arr, index, D), align=2)
+
+
+def _store(context, builder, value, arrty, arr, index, D):
+    builder.store(value, _vector_ptr(context, builder, arrty, arr, index, D), align=2)
+
+
+def _splat(builder, value, D):
+    vt = ir.VectorType(_I16, D)
+    one = builder.insert_element(ir.Constant(vt, ir.Undefined), value, ir.Constant(_I32, 0))
+    return builder.shuffle_vector(one, ir.Constant(vt, ir.Undefined), ir.Constant(ir.VectorType(_I32, D), [0] * D))
+
+
+def _smin(builder, a, b):
+    return builder.select(builder.icmp_signed("<", a, b), a, b)
+
+
+def _umin(builder, vector, D):
+    fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_I16, [vector.type]),
+                                        f"llvm.vector.reduce.umin.v{D}i16")
+    return builder.call(fn, [vector])
+
+
+def _index(builder, value):
+    return builder.add(value, ir.Constant(value.type, 1))
+
+
+def _update(builder, prev, cost, m, q, p1, D):
+    """``_lr`` for every disparity: ``cost - m + min(prev, min(prev[d - 1], prev[d + 1]) + p1, q)``, the sentinel
+    beyond either end of the range."""
+    sentinel = ir.Constant(ir.VectorType(_I16, D), [_SENTINEL] * D)
+    mask = ir.VectorType(_I32, D)
+    below = builder.shuffle_vector(sentinel, prev, ir.Constant(mask, [0] + [D + k - 1 for k in range(1, D)]))
+    above = builder.shuffle_vector(prev, sentinel, ir.Constant(mask, [k + 1 for k in range(D)]))
+    step = builder.add(_smin(builder, below, above), _splat(builder, p1, D))
+    best = _smin(builder, _smin(builder, prev, step), _splat(builder, q, D))
+    return builder.add(builder.sub(cost, _splat(builder, m, D)), best)
+
+
+def _check(index_args, int16_args):
+    for arg in index_args:
+        if not isinstance(arg, types.Integer):
+            raise TypeError(f"path vector index must be an integer, got {arg}")
+    for arg in int16_args:
+        if arg != types.int16:
+            raise TypeError(f"path vector penalty / minimum must be int16, got {arg}")
+
+
+@intrinsic
+def top_path(typingctx, P, rb, wb, crow, cb, m, q, p1, tag):
+    """The top path alone (warm-up rows): ``P[wb + 1:][:D]`` = the update of ``P[rb + 1:][:D]`` with the costs
+    ``crow[cb:][:D]``; returns the new vector's minimum (unsigned)."""
+    _check((rb, wb, cb), (m, q, p1))
+    D = _tag_d(tag)
+
+    def codegen(context, builder, signature, args):
+        P_, rb_, wb_, crow_, cb_, m_, q_, p1_, _ = args
+        at = signature.args
+        prev = _load(context, builder, at[0], P_, _index(builder, rb_), D)
+        new = _update(builder, prev, _load(context, builder, at[3], crow_, cb_, D), m_, q_, p1_, D)
+        _store(context, builder, new, at[0], P_, _index(builder, wb_), D)
+        return _umin(builder, new, D)
+
+    return types.int16(P, rb, wb, crow, cb, m, q, p1, tag), codegen
+
+
+@intrinsic
+def top_and_left(typingctx, PV, rv, wv, PH, rh, wh, crow, cb, mv, qv, p1v, mh, qh, p1, srow, tag):
+    """The top path (``PV``, as :func:`top_path`) and the left path (``PH``) of one pixel from the same costs, their
+    sum stored at ``srow[cb:][:D]``; returns the two new vectors' minima ``(top, left)``."""
+    _check((rv, wv, rh, wh, cb), (mv, qv, p1v, mh, qh, p1))
+    D = _tag_d(tag)
+    result = types.UniTuple(types.int16, 2)
+
+    def codegen(context, builder, signature, args):
+        PV_, rv_, wv_, PH_, rh_, wh_, crow_, cb_, mv_, qv_, p1v_, mh_, qh_, p1_, srow_, _ = args
+        at = signature.args
+        cost = _load(context, builder, at[6], crow_, cb_, D)
+        vv = _update(builder, _load(context, builder, at[0], PV_, _index(builder, rv_), D), cost, mv_, qv_, p1v_, D)
+        vh = _update(builder, _load(context, builder, at[3], PH_, _index(builder, rh_), D), cost, mh_, qh_, p1_, D)
+        _store(context, builder, vv, at[0], PV_, _index(builder, wv_), D)
+        _store(context, builder, vh, at[3], PH_, _index(builder, wh_), D)
+        _store(context, builder, builder.add(vv, vh), at[14], srow_, cb_, D)
+        return context.make_tuple(builder, result, [_umin(builder, vv, D), _umin(builder, vh, D)])
+
+    return result(PV, rv, wv, PH, rh, wh, crow, cb, mv, qv, p1v, mh, qh, p1, srow, tag), codegen
+
+
+@intrinsic
+def right_path_sum(typingctx, PR, rh, wh, crow, cb, mh, qh, p1, srow, tag):
+    """The right path of one pixel (``PR``, as :func:`top_path`) added to its sums ``srow[cb:][:D]`` in place;
+    returns ``(the path vector's minimum, the sums' minimum)``."""
+    _check((rh, wh, cb), (mh, qh, p1))
+    D = _tag_d(tag)
+    result = types.UniTuple(types.int16, 2)
+
+    def codegen(context, builder, signature, args):
+        PR_, rh_, wh_, crow_, cb_, mh_, qh_, p1_, srow_, _ = args
+        at = signature.args
+        cost = _load(context, builder, at[3], crow_, cb_, D)
+        vh = _update(builder, _load(context, builder, at[0], PR_, _index(builder, rh_), D), cost, mh_, qh_, p1_, D)
+        _store(context, builder, vh, at[0], PR_, _index(builder, wh_), D)
+        sums = builder.add(vh, _load(context, builder, at[8], srow_, cb_, D))
+        _store(context, builder, sums, at[8], srow_, cb_, D)
+        return context.make_tuple(builder, result, [_umin(builder, vh, D), _umin(builder, sums, D)])
+
+    return result(PR, rh, wh, crow, cb, mh, qh, p1, srow, tag), codegen

@@ -1,0 +1,101 @@
+"""The whole-vector path updates (``_kernels.pathvec``) against the per-disparity loops they replace (``_lr``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numba import njit
+
+from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr
+from stereo_classic.matching._kernels.intrinsics import add16, umin16
+from stereo_classic.matching._kernels.pathvec import right_path_sum, top_and_left, top_path, vector_paths
+from stereo_classic.matching._kernels.rowpass import path_slots, slot_size
+from stereo_classic.matching._kernels.tags import disparity_tag, tag_disparities
+
+_U = np.uint64
+
+
+@njit(cache=False)
+def _loops(PV, rv, wv, PH, rh, wh, PR, rr, wr, crow, cb, mv, qv, p1v, mh, qh, p1, srow, srow_r, tag):
+    """The kernel's loops before pathvec: top path alone, top + left with their sum, right path into its sums."""
+    D = tag_disparities(tag)
+    top = np.int16(-1)
+    nt = top
+    for k in range(D):  # the top path alone, written to slot wv + 2E (a third slot: the warm-up rows' update)
+        vv = _lr(PV, rv, crow[_U(cb + k)], mv, qv, p1v, k)
+        PV[_U(wv + 2 * len(PV) // 4 + 1 + k)] = vv
+        nt = umin16(nt, vv)
+    nv = top
+    nh = top
+    for k in range(D):
+        c = crow[_U(cb + k)]
+        vv = _lr(PV, rv, c, mv, qv, p1v, k)
+        vh = _lr(PH, rh, c, mh, qh, p1, k)
+        PV[_U(wv + 1 + k)] = vv
+        PH[_U(wh + 1 + k)] = vh
+        nv = umin16(nv, vv)
+        nh = umin16(nh, vh)
+        srow[_U(cb + k)] = add16(vv, vh)
+    nr = top
+    ns = top
+    for k in range(D):
+        vr = _lr(PR, rr, crow[_U(cb + k)], mh, qh, p1, k)
+        PR[_U(wr + 1 + k)] = vr
+        nr = umin16(nr, vr)
+        sm = add16(vr, srow_r[_U(cb + k)])
+        srow_r[_U(cb + k)] = sm
+        ns = umin16(ns, sm)
+    return nt, nv, nh, nr, ns
+
+
+@njit(cache=False)
+def _vectors(PV, rv, wv, PH, rh, wh, PR, rr, wr, crow, cb, mv, qv, p1v, mh, qh, p1, srow, srow_r, tag):
+    nt = top_path(PV, rv, wv + 2 * len(PV) // 4, crow, cb, mv, qv, p1v, tag)
+    nv, nh = top_and_left(PV, rv, wv, PH, rh, wh, crow, cb, mv, qv, p1v, mh, qh, p1, srow, tag)
+    nr, ns = right_path_sum(PR, rr, wr, crow, cb, mh, qh, p1, srow_r, tag)
+    return nt, nv, nh, nr, ns
+
+
+def test_vector_paths_only_for_whole_registers():
+    """The kernel takes the vector branch for D a multiple of 32 (whole 512-bit registers of int16), else the loops."""
+    assert [D for D in (16, 32, 48, 64, 80, 96, 112, 128, 4096) if vector_paths(disparity_tag(D))] == [
+        32, 64, 96, 128, 4096]
+
+
+@pytest.mark.parametrize("D", [32, 64, 96, 128, 160])
+def test_whole_vector_updates_equal_the_loops(D):
+    """Every stored value and every minimum is the loops', bit for bit, at the kernels' value ranges: path values up to
+    a few thousand (int16 sums of three of them stay far from the wrap), the sentinel either end of each slot, costs
+    that make neighbours win and lose, penalties from the smallest to the largest the kernels give."""
+    rng = np.random.default_rng(D)
+    E = slot_size(D)
+    tag = disparity_tag(D)
+    W = 3
+    for trial in range(40):
+        hi = [8, 60, 400, 3000][trial % 4]
+        PV = path_slots(4, D)
+        PH = path_slots(2, D)
+        PR = path_slots(2, D)
+        for P, n in ((PV, 4), (PH, 2), (PR, 2)):
+            for s in range(n):
+                P[s * E + 1:s * E + 1 + D] = rng.integers(0, hi, D)
+        crow = rng.integers(0, min(hi, 200), W * D).astype(np.int16)
+        srow_r = rng.integers(0, 2 * hi, W * D).astype(np.int16)
+        x = int(rng.integers(0, W))
+        p1 = np.int16(rng.integers(1, 120))
+        p1v = np.int16(rng.integers(1, 120))
+        mv = np.int16(PV[E + 1:E + 1 + D].min())
+        mh = np.int16(PH[E + 1:E + 1 + D].min())
+        qv = np.int16(mv + rng.integers(p1v + 1, 1400))
+        qh = np.int16(mh + rng.integers(p1 + 1, 1400))
+        bufs = [(PV.copy(), PH.copy(), PR.copy(), np.zeros(W * D, np.int16), srow_r.copy()) for _ in range(2)]
+        got = []
+        for fn, (pv, ph, pr, sr, srr) in zip((_loops, _vectors), bufs):
+            got.append(fn(pv, E, 0, ph, E, 0, pr, E, 0, crow, x * D, mv, qv, p1v, mh, qh, p1, sr, srr, tag))
+        assert got[0] == got[1], (D, trial)
+        for want, have in zip(bufs[0], bufs[1]):
+            np.testing.assert_array_equal(have, want)
+        # the sentinels either end of every slot are never written
+        for P in bufs[1][:3]:
+            slots = P.reshape(-1, E)
+            assert np.all(slots[:, 0] == _SENTINEL) and np.all(slots[:, D + 1] == _SENTINEL)
