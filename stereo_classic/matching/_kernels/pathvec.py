@@ -28,6 +28,7 @@ __all__ = ["VECTOR_BLOCK", "right_path_sum", "top_and_left", "top_path", "vector
 
 #: ``vector_paths`` holds for D a multiple of this (int16 lanes of one 512-bit register).
 VECTOR_BLOCK = 32
+assert VECTOR_BLOCK == _TAG_BLOCK  # vector_paths reads whole blocks off the tag
 
 _I16 = ir.IntType(16)
 _I32 = ir.IntType(32)
@@ -92,7 +93,10 @@ def _update(builder, prev, cost, m, q, p1, D):
     return builder.add(builder.sub(cost, _splat(builder, m, D)), best)
 
 
-def _check(index_args, int16_args):
+def _check(arrays, index_args, int16_args):
+    for arg in arrays:
+        if not (isinstance(arg, types.Array) and arg.dtype == types.int16 and arg.ndim == 1 and arg.layout == "C"):
+            raise TypeError(f"path vector buffer must be a contiguous 1-d int16 array, got {arg}")
     for arg in index_args:
         if not isinstance(arg, types.Integer):
             raise TypeError(f"path vector index must be an integer, got {arg}")
@@ -105,7 +109,7 @@ def _check(index_args, int16_args):
 def top_path(typingctx, P, rb, wb, crow, cb, m, q, p1, tag):
     """The top path alone (warm-up rows): ``P[wb + 1:][:D]`` = the update of ``P[rb + 1:][:D]`` with the costs
     ``crow[cb:][:D]``; returns the new vector's minimum (unsigned)."""
-    _check((rb, wb, cb), (m, q, p1))
+    _check((P, crow), (rb, wb, cb), (m, q, p1))
     D = _tag_d(tag)
 
     def codegen(context, builder, signature, args):
@@ -123,7 +127,7 @@ def top_path(typingctx, P, rb, wb, crow, cb, m, q, p1, tag):
 def top_and_left(typingctx, PV, rv, wv, PH, rh, wh, crow, cb, mv, qv, p1v, mh, qh, p1, srow, tag):
     """The top path (``PV``, as :func:`top_path`) and the left path (``PH``) of one pixel from the same costs, their
     sum stored at ``srow[cb:][:D]``; returns the two new vectors' minima ``(top, left)``."""
-    _check((rv, wv, rh, wh, cb), (mv, qv, p1v, mh, qh, p1))
+    _check((PV, PH, crow, srow), (rv, wv, rh, wh, cb), (mv, qv, p1v, mh, qh, p1))
     D = _tag_d(tag)
     result = types.UniTuple(types.int16, 2)
 
@@ -145,7 +149,7 @@ def top_and_left(typingctx, PV, rv, wv, PH, rh, wh, crow, cb, mv, qv, p1v, mh, q
 def right_path_sum(typingctx, PR, rh, wh, crow, cb, mh, qh, p1, srow, tag):
     """The right path of one pixel (``PR``, as :func:`top_path`) added to its sums ``srow[cb:][:D]`` in place;
     returns ``(the path vector's minimum, the sums' minimum)``."""
-    _check((rh, wh, cb), (mh, qh, p1))
+    _check((PR, crow, srow), (rh, wh, cb), (mh, qh, p1))
     D = _tag_d(tag)
     result = types.UniTuple(types.int16, 2)
 

@@ -99,3 +99,18 @@ def test_whole_vector_updates_equal_the_loops(D):
         for P in bufs[1][:3]:
             slots = P.reshape(-1, E)
             assert np.all(slots[:, 0] == _SENTINEL) and np.all(slots[:, D + 1] == _SENTINEL)
+
+
+def test_wrong_buffers_are_refused_when_compiled():
+    """A buffer of another dtype or a non-int16 penalty fails at compile time, naming what it got (not deep in LLVM)."""
+    from numba.core.errors import TypingError
+
+    @njit(cache=False)
+    def call(P, crow, p1, tag):
+        return top_path(P, 0, 0, crow, 0, np.int16(0), np.int16(9), p1, tag)
+
+    tag = disparity_tag(32)
+    with pytest.raises((TypeError, TypingError), match="contiguous 1-d int16 array, got array\\(float32"):
+        call(np.zeros(64, np.float32), np.zeros(32, np.int16), np.int16(1), tag)
+    with pytest.raises((TypeError, TypingError), match="must be int16, got int64"):
+        call(path_slots(1, 32), np.zeros(32, np.int16), 1, tag)
