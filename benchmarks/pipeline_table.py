@@ -84,17 +84,22 @@ def _record(command: str, guide: Any, result: Any, rig: Any, i: int) -> dict[str
 
 @contextmanager
 def _warm_localizer(spec: dict[str, Any], model: Path, guided: bool) -> Iterator[Any]:
-    """The input's Localizer (matcher at 2 threads, the detector as ``run`` has it), warmed up: the first frame
-    through it (kernel compilation, allocation, the detector's session) and, for ``guide``, every distinct frame
-    through a throwaway Guide: its kernels compile on the first call that takes each of their paths (the floor,
-    drop-offs, tracks), and with a cold numba cache those calls made the guide stage's mean CPU ten times its median
-    on the OAK-D scenes."""
+    """The input's Localizer (matcher at 2 threads, the detector as ``run`` has it), warmed up as ``run`` and
+    ``guide`` are: the kernels of the matcher and of the frame checks' half-size looks loaded before the first frame
+    (``pipeline.load_frame_kernels``: with a cold numba cache a look's kernels, compiled per range, otherwise compiled
+    inside a timed frame whose checks were the first to look, 4.8 s in one OAK-D frame of the run at 2c7848d); the
+    first frame through it (allocation, the detector's session); and, for ``guide``, every distinct frame through a
+    throwaway Guide: its kernels compile on the first call that takes each of their paths (the floor, drop-offs,
+    tracks), and with a cold numba cache those calls made the guide stage's mean CPU ten times its median on the
+    OAK-D scenes."""
     from stereo_classic.guide import Guide
-    from stereo_classic.pipeline import Localizer, open_detector
+    from stereo_classic.matching import SGMParams
+    from stereo_classic.pipeline import Localizer, load_frame_kernels, open_detector
 
     frames = spec["frames"]
-    with Localizer(spec["rig"], open_detector(str(model), threads=DETECTOR_THREADS),
-                   {"num_disparities": spec["num_disparities"], "threads": 2}) as loc:
+    matcher = {"num_disparities": spec["num_disparities"], "threads": 2}
+    load_frame_kernels(SGMParams(**matcher))
+    with Localizer(spec["rig"], open_detector(str(model), threads=DETECTOR_THREADS), matcher) as loc:
         loc(_read(frames[0][0]), _read(frames[0][1]))
         if guided:
             guide = Guide()
