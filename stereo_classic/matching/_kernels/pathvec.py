@@ -21,10 +21,10 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from stereo_classic.matching._kernels.aggregate import _SENTINEL
+from stereo_classic.matching._kernels.aggregate import _INT16_MAX, _SENTINEL
 from stereo_classic.matching._kernels.tags import _TAG_BLOCK
 
-__all__ = ["VECTOR_BLOCK", "right_path_sum", "top_and_left", "top_path", "vector_paths"]
+__all__ = ["VECTOR_BLOCK", "right_path_sum", "right_path_view", "top_and_left", "top_path", "vector_paths"]
 
 #: ``vector_paths`` holds for D a multiple of this (int16 lanes of one 512-bit register).
 VECTOR_BLOCK = 32
@@ -145,6 +145,17 @@ def top_and_left(typingctx, PV, rv, wv, PH, rh, wh, crow, cb, mv, qv, p1v, mh, q
     return result(PV, rv, wv, PH, rh, wh, crow, cb, mv, qv, p1v, mh, qh, p1, srow, tag), codegen
 
 
+def _right_path(context, builder, at, args, D):
+    """The right path's new vector, stored at ``PR[wh + 1:]``, and the sums with it, stored at ``srow[cb:]``."""
+    PR_, rh_, wh_, crow_, cb_, mh_, qh_, p1_, srow_ = args[:9]
+    cost = _load(context, builder, at[3], crow_, cb_, D)
+    vh = _update(builder, _load(context, builder, at[0], PR_, _index(builder, rh_), D), cost, mh_, qh_, p1_, D)
+    _store(context, builder, vh, at[0], PR_, _index(builder, wh_), D)
+    sums = builder.add(vh, _load(context, builder, at[8], srow_, cb_, D))
+    _store(context, builder, sums, at[8], srow_, cb_, D)
+    return vh, sums
+
+
 @intrinsic
 def right_path_sum(typingctx, PR, rh, wh, crow, cb, mh, qh, p1, srow, tag):
     """The right path of one pixel (``PR``, as :func:`top_path`) added to its sums ``srow[cb:][:D]`` in place;
@@ -154,13 +165,48 @@ def right_path_sum(typingctx, PR, rh, wh, crow, cb, mh, qh, p1, srow, tag):
     result = types.UniTuple(types.int16, 2)
 
     def codegen(context, builder, signature, args):
-        PR_, rh_, wh_, crow_, cb_, mh_, qh_, p1_, srow_, _ = args
-        at = signature.args
-        cost = _load(context, builder, at[3], crow_, cb_, D)
-        vh = _update(builder, _load(context, builder, at[0], PR_, _index(builder, rh_), D), cost, mh_, qh_, p1_, D)
-        _store(context, builder, vh, at[0], PR_, _index(builder, wh_), D)
-        sums = builder.add(vh, _load(context, builder, at[8], srow_, cb_, D))
-        _store(context, builder, sums, at[8], srow_, cb_, D)
+        vh, sums = _right_path(context, builder, signature.args, args, D)
         return context.make_tuple(builder, result, [_umin(builder, vh, D), _umin(builder, sums, D)])
 
     return result(PR, rh, wh, crow, cb, mh, qh, p1, srow, tag), codegen
+
+
+@intrinsic
+def right_path_view(typingctx, PR, rh, wh, crow, cb, mh, qh, p1, srow, VV, VK, tag):
+    """:func:`right_path_sum`, and the right view's winners of the pixel's D right pixels in a window carried from
+    pixel to pixel.
+
+    Pixel x's sums land on the right pixels q = W - 1 - x + k (``select.right_view_row``): D consecutive ones, one
+    further each pixel of the right-to-left sweep. ``VV[:D]`` / ``VK[:D]`` hold the lowest sum so far and its
+    index for the previous pixel's D right pixels; no later pixel reaches the first of them, so it is returned,
+    final, and the window moves on by one lane (the new last lane: ``INT16_MAX`` / -1, nothing yet) before this
+    pixel's sums enter it. In the window the sums of lane k have index k, and the rule is ``right_view_row``'s
+    (a lower sum, or the same with a lower index), so the winners are the same. Returns ``(the path vector's
+    minimum, the sums' minimum, the finished right pixel's sum, its index)``; ``VV`` and ``VK`` must start with
+    ``INT16_MAX`` / -1 (a row's first pixel returns them), and hold the row's last D right pixels after its last.
+    """
+    _check((PR, crow, srow, VV, VK), (rh, wh, cb), (mh, qh, p1))
+    D = _tag_d(tag)
+    result = types.UniTuple(types.int16, 4)
+
+    def codegen(context, builder, signature, args):
+        at = signature.args
+        vh, sums = _right_path(context, builder, at, args, D)
+        VV_, VK_ = args[9], args[10]
+        zero = ir.Constant(_I32, 0)
+        mask = ir.Constant(ir.VectorType(_I32, D), [k + 1 for k in range(D)])
+        vt = ir.VectorType(_I16, D)
+        old_v = _load(context, builder, at[9], VV_, zero, D)
+        old_k = _load(context, builder, at[10], VK_, zero, D)
+        win_v = builder.shuffle_vector(old_v, ir.Constant(vt, [_INT16_MAX] * D), mask)
+        win_k = builder.shuffle_vector(old_k, ir.Constant(vt, [-1] * D), mask)
+        lanes = ir.Constant(vt, list(range(D)))
+        take = builder.or_(builder.icmp_signed("<", sums, win_v),
+                           builder.and_(builder.icmp_signed("==", sums, win_v), builder.icmp_signed("<", lanes, win_k)))
+        _store(context, builder, _smin(builder, sums, win_v), at[9], VV_, zero, D)
+        _store(context, builder, builder.select(take, lanes, win_k), at[10], VK_, zero, D)
+        return context.make_tuple(builder, result, [
+            _umin(builder, vh, D), _umin(builder, sums, D), builder.extract_element(old_v, zero),
+            builder.extract_element(old_k, zero)])
+
+    return result(PR, rh, wh, crow, cb, mh, qh, p1, srow, VV, VK, tag), codegen

@@ -10,8 +10,10 @@ The directions are OpenCV MODE_SGBM_3WAY's: from the left, from above, from the 
 * a right-to-left sweep adds the right path, keeping the complete sum in ``srow`` and its minimum per pixel;
   it runs one row behind, in the same pass over the columns as the next row's left-to-right sweep (two
   independent pixel-to-pixel chains side by side: at short ranges the chains' latency set the pace);
-* ``select.right_view_row`` finds the right view's winners and ``select.select_row`` resolves the row
-  (winner-takes-all, uniqueness, subpixel, left-right check).
+* the right view's winners are found in the right-to-left sweep where D is a multiple of 32
+  (``pathvec.right_path_view``, a window of D right pixels carried from pixel to pixel), else by
+  ``select.right_view_row`` over the finished row, and ``select.select_row`` resolves the row (winner-takes-all,
+  uniqueness, subpixel, left-right check).
 
 Where D is a multiple of 32 a pixel's path updates are made on whole LLVM vectors (:mod:`.pathvec`: the previous
 vector loaded once, its neighbours at d +- 1 made in registers), elsewhere by the loops over the disparities; the
@@ -30,7 +32,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr, _p2_at, cross_penalty
+from stereo_classic.matching._kernels.aggregate import _INT16_MAX, _SENTINEL, _lr, _p2_at, cross_penalty
 from stereo_classic.matching._kernels.aligned import aligned_empty, aligned_zeros
 from stereo_classic.matching._kernels.cost import (
     NoAliasCompiler,
@@ -38,7 +40,8 @@ from stereo_classic.matching._kernels.cost import (
     row_cost,
 )
 from stereo_classic.matching._kernels.intrinsics import add16, umin16
-from stereo_classic.matching._kernels.pathvec import right_path_sum, top_and_left, top_path, vector_paths
+from stereo_classic.matching._kernels.pathvec import (right_path_sum, right_path_view, top_and_left, top_path,
+                                                      vector_paths)
 from stereo_classic.matching._kernels.select import right_view_row, select_row
 from stereo_classic.matching._kernels.tags import disparity_tag, tag_disparities
 
@@ -113,6 +116,9 @@ class RowPassBuffers(NamedTuple):
         0 .. D - 1 (the first index of the minimum is found with vector selects).
     right_sums, right_k : (W + D - 1,) int16
         Right view: best sum and its disparity index per right pixel.
+    view_v, view_k : (E,) int16
+        Where D is a multiple of 32: the right view's window carried through a row's right-to-left sweep
+        (``pathvec.right_path_view``; first element on a cache line).
     best : (W,) int64
         Winning disparity index per pixel of the row (-1: none).
     counts : (3,) int64
@@ -133,6 +139,8 @@ class RowPassBuffers(NamedTuple):
     k_index: np.ndarray
     right_sums: np.ndarray
     right_k: np.ndarray
+    view_v: np.ndarray
+    view_k: np.ndarray
     best: np.ndarray
     counts: np.ndarray
     claim_cost: np.ndarray
@@ -170,6 +178,7 @@ def row_pass_buffers(H: int, W: int, D: int, warm_rows: int = 0) -> RowPassBuffe
         path_r=path_slots(2, D),
         row_min=aligned_empty(W, np.int16), k_index=np.arange(D, dtype=np.int16),
         right_sums=aligned_empty(W + D - 1, np.int16), right_k=aligned_empty(W + D - 1, np.int16),
+        view_v=aligned_empty(slot_size(D), np.int16), view_k=aligned_empty(slot_size(D), np.int16),
         best=np.empty(W, np.int64), counts=np.zeros(3, np.int64),
         claim_cost=np.empty(W, np.int16), claim_k=np.empty(W, np.int16), tag=disparity_tag(D))
 
@@ -179,7 +188,7 @@ def row_pass_bytes(H: int, W: int, D: int, warm_rows: int = 0) -> int:
     E = slot_size(D)
     slots = W + H + 1
     return (2 * (warm_rows + 4) * W * D + 2 * slots * E + 2 * slots + 2 * 2 * 2 * E + 2 * W + 2 * D
-            + 2 * 2 * (W + D - 1) + 8 * W + 24 + 2 * 2 * W)
+            + 2 * 2 * (W + D - 1) + 2 * 2 * E + 8 * W + 24 + 2 * 2 * W)
 
 
 @njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
@@ -224,11 +233,15 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     rv = bufs.right_sums
     rd = bufs.right_k
     right_view = settings.right_view
+    VV = bufs.view_v
+    VK = bufs.view_k
     Sf = out.sums
     D = tag_disparities(bufs.tag)  # len(bufs.k_index), as a constant: compiled once per D
     E = slot_size(D)
     vec = vector_paths(bufs.tag)  # whole-vector path updates (pathvec): a constant, the other branch is dropped
     top = np.int16(-1)  # 65535 read as unsigned: where the vectors' minima (umin16, non-negative values) start
+    big = np.int16(_INT16_MAX)
+    fused_view = vec and right_view  # the right view made in the right-to-left sweep (pathvec.right_path_view)
     zero = np.int16(0)
     n_rows = plan.n_rows
     cached = plan.cached
@@ -256,6 +269,8 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
         for k in range(D):
             PH[k + 1] = zero
             PR[k + 1] = zero
+            VV[k] = big
+            VK[k] = top
         mh_run = zero  # the left / right path's previous minimum, carried in a register
         mr_run = zero
         yp = y - 1
@@ -270,7 +285,12 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
                 qh = add16(mh, _p2_at(limg, yp, x, yp, x + 1, p1, p2, adaptive) if adaptive else p2)
                 wh = whs * E
                 rh = rhs * E
-                if vec:
+                if fused_view:
+                    nh, ns, fv, fk = right_path_view(PR, rh, wh, crow_p, cb, mh, qh, p1, srow_p, VV, VK, bufs.tag)
+                    if i > 0:  # right pixel i - 1 is complete
+                        rv[i - 1] = fv
+                        rd[i - 1] = fk
+                elif vec:
                     nh, ns = right_path_sum(PR, rh, wh, crow_p, cb, mh, qh, p1, srow_p, bufs.tag)
                 else:
                     nh = top
@@ -327,7 +347,11 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
                 MV[wvs] = nv
         if not prev:
             continue
-        if right_view:
+        if fused_view:  # the window holds the row's last D right pixels
+            for k in range(D):
+                rv[W - 1 + k] = VV[k]
+                rd[W - 1 + k] = VK[k]
+        elif right_view:
             right_view_row(srow_p, rv, rd, W, bufs.tag)
         if plan.keep_sums:
             base = yp * W * D

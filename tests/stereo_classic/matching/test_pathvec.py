@@ -8,8 +8,10 @@ from numba import njit
 
 from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr
 from stereo_classic.matching._kernels.intrinsics import add16, umin16
-from stereo_classic.matching._kernels.pathvec import right_path_sum, top_and_left, top_path, vector_paths
+from stereo_classic.matching._kernels.pathvec import (right_path_sum, right_path_view, top_and_left, top_path,
+                                                      vector_paths)
 from stereo_classic.matching._kernels.rowpass import path_slots, slot_size
+from stereo_classic.matching._kernels.select import right_view_row
 from stereo_classic.matching._kernels.tags import disparity_tag, tag_disparities
 
 _U = np.uint64
@@ -99,6 +101,70 @@ def test_whole_vector_updates_equal_the_loops(D):
         for P in bufs[1][:3]:
             slots = P.reshape(-1, E)
             assert np.all(slots[:, 0] == _SENTINEL) and np.all(slots[:, D + 1] == _SENTINEL)
+
+
+@njit(cache=False)
+def _right_sweep(PR, crow, srow, VV, VK, rv, rd, p1, p2, fused, tag):
+    """A row's right path from right to left, as the kernel runs it: with the right view in its window (``fused``:
+    right pixel i - 1 finished at column step i, the last D at the end) or with ``right_path_sum`` alone."""
+    D = tag_disparities(tag)
+    E = len(PR) // 2
+    W = len(srow) // D
+    for k in range(D):
+        VV[k] = np.int16(32767)
+        VK[k] = np.int16(-1)
+    m = np.int16(0)
+    minima = np.empty((W, 2), np.int16)
+    for i in range(W):
+        x = W - 1 - i
+        rh = (i & 1) * E
+        wh = E - rh
+        if fused:
+            nh, ns, fv, fk = right_path_view(PR, rh, wh, crow, x * D, m, add16(m, p2), p1, srow, VV, VK, tag)
+            if i > 0:
+                rv[i - 1] = fv
+                rd[i - 1] = fk
+        else:
+            nh, ns = right_path_sum(PR, rh, wh, crow, x * D, m, add16(m, p2), p1, srow, tag)
+        minima[x, 0] = nh
+        minima[x, 1] = ns
+        m = nh
+    if fused:
+        for k in range(D):
+            rv[W - 1 + k] = VV[k]
+            rd[W - 1 + k] = VK[k]
+    return minima
+
+
+@pytest.mark.parametrize("D", [32, 64, 128])
+def test_right_view_in_the_sweep_equals_its_own_pass(D):
+    """``right_path_view`` gives the sums, minima and path vectors of ``right_path_sum`` and the right view of
+    ``select.right_view_row`` over the finished sums, bit for bit: few distinct values (many ties, where the lowest
+    index must win), sums at INT16_MAX (which never claim a right pixel), rows narrower and wider than D."""
+    rng = np.random.default_rng(7 * D)
+    tag = disparity_tag(D)
+    E = slot_size(D)
+    for trial in range(24):
+        W = [1, 5, D - 1, D + 3, 3 * D + 7][trial % 5]
+        hi = [3, 40, 2000][trial % 3]
+        crow = rng.integers(0, min(hi, 100), W * D).astype(np.int16)
+        srow = rng.integers(0, hi, W * D).astype(np.int16)
+        if trial % 4 == 3:  # sums that stay at INT16_MAX whatever the path adds: a path of zeros, no cost
+            crow[:] = 0
+            srow[rng.random(W * D) < 0.5] = 32767
+        got = []
+        for fused in (False, True):
+            PR = path_slots(2, D)
+            sr = srow.copy()
+            rv = np.full(W + D - 1, -5, np.int16)
+            rd = np.full(W + D - 1, -5, np.int16)
+            minima = _right_sweep(PR, crow, sr, np.empty(E, np.int16), np.empty(E, np.int16), rv, rd, np.int16(9),
+                                  np.int16(hi // 2 + 10), fused, tag)
+            if not fused:
+                right_view_row(sr, rv, rd, W, tag)
+            got.append((PR, sr, minima, rv, rd))
+        for want, have in zip(*got):
+            np.testing.assert_array_equal(have, want, err_msg=f"D={D} trial={trial}")
 
 
 def test_wrong_buffers_are_refused_when_compiled():
