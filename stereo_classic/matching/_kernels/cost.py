@@ -292,8 +292,11 @@ class RowCostBuffers(NamedTuple):
         Gradient and intensity channels of two right rows (the one entering the column window, the one leaving
         it), reversed ((1,) for census; irev (1,) but for SAD).
     floor : (D,) int16
-        0 for the disparities of the range, the invalid cost for the padding past it (``CostSettings``): the cost
-        of index k is at least ``floor[k]`` (one vector max, instead of a remainder loop per pixel).
+        0 for the disparities of the range, the invalid cost for the padding past it (``CostSettings``): the SAD and
+        learned costs of index k are at least ``floor[k]`` (one vector max, instead of a remainder loop per pixel).
+        The census costs need no max: they are never negative nor above the invalid cost, so ``row_cost`` writes
+        the invalid cost on their padding once the row is made (one load and one max fewer per 32 costs; VGA, 64
+        disparities, 2 threads: ``row_cost`` 4.99 -> 4.46 CPU ms a frame, ``benchmarks.kernel_profile``).
     tag : tuple
         ``tags.disparity_tag(D)``: ``row_cost`` reads D from it (compiled once per D).
     frev : (C * (W + D - 1),) float32
@@ -528,25 +531,27 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
         if fused and narrow:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT
             for k in range(D):
                 hs = _moved_sum(hsum, colsum, bout, bin_, k)
-                crow[_U(cb + k)] = max16(add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k),
-                                               mullo16(hs, gmul, gshift)), floor[k])
+                crow[_U(cb + k)] = add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k), mullo16(hs, gmul, gshift))
         elif fused:  # the same through the high half of a 16-bit product
             for k in range(D):
                 hs = _moved_sum(hsum, colsum, bout, bin_, k)
-                crow[_U(cb + k)] = max16(add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k),
-                                               mulhi16(hs, ghi)), floor[k])
+                crow[_U(cb + k)] = add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k), mulhi16(hs, ghi))
         elif grad and high:  # the first column: the window sum made above
             for k in range(D):
-                crow[_U(cb + k)] = max16(add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k),
-                                               mulhi16(hsum[k], ghi)), floor[k])
+                crow[_U(cb + k)] = add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k), mulhi16(hsum[k], ghi))
         elif grad:  # the same in 32-bit products (block size 1: grad_mul is 2 ** GRAD_SHIFT)
             for k in range(D):
-                crow[_U(cb + k)] = max16(add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k),
-                                               mulshr16(hsum[k], gmul, gshift)), floor[k])
+                crow[_U(cb + k)] = add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k),
+                                         mulshr16(hsum[k], gmul, gshift))
         else:
             for k in range(D):
-                crow[_U(cb + k)] = max16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k), floor[k])
+                crow[_U(cb + k)] = _hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k)
     nd = cost.num_disparities
+    if kind != SAD and nd < D:  # the padding past the range: the invalid cost (the census costs need no floor in it)
+        for x in range(W):
+            cb = x * D
+            for k in range(nd, D):
+                crow[_U(cb + k)] = cinv
     for x in range(W):  # disparities whose match is outside the right image: k outside [k_lo, k_hi]
         k_lo, k_hi = valid_range(x, W, dmin, nd)
         if k_lo > 0 or k_hi < nd - 1:
