@@ -8,6 +8,11 @@ d - 1 and d + 1 are made from it in registers (LLVM's shuffles: ``vpalignr`` / `
 either end of the range is a constant. The arithmetic is ``_lr``'s, in the same 16-bit operations (wrapping adds,
 signed minima, the vector's minimum unsigned), so every value is the same bit for bit (tested against the loops).
 
+The left and right paths' previous vectors and the right view's window (:func:`right_path_view`) are not stored at
+all: the kernel carries them from one pixel to the next as :class:`PathVector` values, LLVM vectors that stay in
+registers (no store and load of each path vector a pixel, which the next pixel waited for; OAK-D VGA, 64
+disparities, 2 threads, six rounds alternated: 11.96 -> 11.56 ms a call, docs/matching.md "Eleventh round").
+
 The functions are numba intrinsics; D comes from the buffers' ``tags.disparity_tag`` type, so each range gets its
 own code, as the kernels do. :func:`vector_paths` says where they are used: D a whole number of 512-bit vectors of
 int16 (a multiple of 32), where LLVM splits the vector into whole registers (measured: docs/matching.md, "Tenth
@@ -19,12 +24,13 @@ from __future__ import annotations
 from llvmlite import ir
 from numba import njit, types
 from numba.core import cgutils
-from numba.extending import intrinsic
+from numba.extending import intrinsic, models, register_model
 
 from stereo_classic.matching._kernels.aggregate import _INT16_MAX, _SENTINEL
 from stereo_classic.matching._kernels.tags import _TAG_BLOCK
 
-__all__ = ["VECTOR_BLOCK", "right_path_sum", "right_path_view", "top_and_left", "top_path", "vector_paths"]
+__all__ = ["VECTOR_BLOCK", "PathVector", "load_vector", "right_path_sum", "right_path_view", "store_vector",
+           "top_and_left", "top_path", "vector_of", "vector_paths"]
 
 #: ``vector_paths`` holds for D a multiple of this (int16 lanes of one 512-bit register).
 VECTOR_BLOCK = 32
@@ -32,6 +38,22 @@ assert VECTOR_BLOCK == _TAG_BLOCK  # vector_paths reads whole blocks off the tag
 
 _I16 = ir.IntType(16)
 _I32 = ir.IntType(32)
+
+
+class PathVector(types.Type):
+    """numba type of one pixel's D int16 values held as an LLVM ``<D x i16>`` value: a variable of it that the kernel
+    carries from one pixel to the next stays in registers (the horizontal paths' previous vectors, the right view's
+    window), where a buffer costs a store and a load per pixel."""
+
+    def __init__(self, n: int):
+        self.n = int(n)
+        super().__init__(name=f"PathVector({self.n})")
+
+
+@register_model(PathVector)
+class _PathVectorModel(models.PrimitiveModel):
+    def __init__(self, dmm, fe_type):
+        super().__init__(dmm, fe_type, ir.VectorType(_I16, fe_type.n))
 
 
 def _tag_d(tag: types.Type) -> int:
@@ -106,6 +128,50 @@ def _check(arrays, index_args, int16_args):
 
 
 @intrinsic
+def vector_of(typingctx, value, tag):
+    """A ``PathVector`` of the tag's D lanes, each ``value`` (int16)."""
+    _check((), (), (value,))
+    D = _tag_d(tag)
+
+    def codegen(context, builder, signature, args):
+        return _splat(builder, args[0], D)
+
+    return PathVector(D)(value, tag), codegen
+
+
+@intrinsic
+def load_vector(typingctx, arr, index, tag):
+    """A ``PathVector`` of ``arr[index:][:D]`` (D: the tag's)."""
+    _check((arr,), (index,), ())
+    D = _tag_d(tag)
+
+    def codegen(context, builder, signature, args):
+        return _load(context, builder, signature.args[0], args[0], args[1], D)
+
+    return PathVector(D)(arr, index, tag), codegen
+
+
+@intrinsic
+def store_vector(typingctx, arr, index, vector):
+    """``arr[index:][:D]`` = the lanes of ``vector`` (a ``PathVector``)."""
+    if not isinstance(vector, PathVector):
+        raise TypeError(f"store_vector needs a PathVector, got {vector}")
+    _check((arr,), (index,), ())
+
+    def codegen(context, builder, signature, args):
+        _store(context, builder, args[2], signature.args[0], args[0], args[1], vector.n)
+        return context.get_dummy_value()
+
+    return types.none(arr, index, vector), codegen
+
+
+def _check_vectors(D, *vectors):
+    for v in vectors:
+        if not (isinstance(v, PathVector) and v.n == D):
+            raise TypeError(f"path vector of {D} lanes expected, got {v}")
+
+
+@intrinsic
 def top_path(typingctx, P, rb, wb, crow, cb, m, q, p1, tag):
     """The top path alone (warm-up rows): ``P[wb + 1:][:D]`` = the update of ``P[rb + 1:][:D]`` with the costs
     ``crow[cb:][:D]``; returns the new vector's minimum (unsigned)."""
@@ -124,89 +190,87 @@ def top_path(typingctx, P, rb, wb, crow, cb, m, q, p1, tag):
 
 
 @intrinsic
-def top_and_left(typingctx, PV, rv, wv, PH, rh, wh, crow, cb, mv, qv, p1v, mh, qh, p1, srow, tag):
-    """The top path (``PV``, as :func:`top_path`) and the left path (``PH``) of one pixel from the same costs, their
-    sum stored at ``srow[cb:][:D]``; returns the two new vectors' minima ``(top, left)``."""
-    _check((PV, PH, crow, srow), (rv, wv, rh, wh, cb), (mv, qv, p1v, mh, qh, p1))
+def top_and_left(typingctx, PV, rv, wv, H, crow, cb, mv, qv, p1v, mh, qh, p1, srow, tag):
+    """The top path (``PV``, as :func:`top_path`) and the left path (the previous pixel's vector ``H``, a
+    ``PathVector``) of one pixel from the same costs, their sum stored at ``srow[cb:][:D]``; returns the two new
+    vectors' minima and the new left-path vector ``(top, left, H)``."""
+    _check((PV, crow, srow), (rv, wv, cb), (mv, qv, p1v, mh, qh, p1))
     D = _tag_d(tag)
-    result = types.UniTuple(types.int16, 2)
+    _check_vectors(D, H)
+    result = types.Tuple((types.int16, types.int16, H))
 
     def codegen(context, builder, signature, args):
-        PV_, rv_, wv_, PH_, rh_, wh_, crow_, cb_, mv_, qv_, p1v_, mh_, qh_, p1_, srow_, _ = args
+        PV_, rv_, wv_, H_, crow_, cb_, mv_, qv_, p1v_, mh_, qh_, p1_, srow_, _ = args
         at = signature.args
-        cost = _load(context, builder, at[6], crow_, cb_, D)
+        cost = _load(context, builder, at[4], crow_, cb_, D)
         vv = _update(builder, _load(context, builder, at[0], PV_, _index(builder, rv_), D), cost, mv_, qv_, p1v_, D)
-        vh = _update(builder, _load(context, builder, at[3], PH_, _index(builder, rh_), D), cost, mh_, qh_, p1_, D)
+        vh = _update(builder, H_, cost, mh_, qh_, p1_, D)
         _store(context, builder, vv, at[0], PV_, _index(builder, wv_), D)
-        _store(context, builder, vh, at[3], PH_, _index(builder, wh_), D)
-        _store(context, builder, builder.add(vv, vh), at[14], srow_, cb_, D)
-        return context.make_tuple(builder, result, [_umin(builder, vv, D), _umin(builder, vh, D)])
+        _store(context, builder, builder.add(vv, vh), at[12], srow_, cb_, D)
+        return context.make_tuple(builder, result, [_umin(builder, vv, D), _umin(builder, vh, D), vh])
 
-    return result(PV, rv, wv, PH, rh, wh, crow, cb, mv, qv, p1v, mh, qh, p1, srow, tag), codegen
+    return result(PV, rv, wv, H, crow, cb, mv, qv, p1v, mh, qh, p1, srow, tag), codegen
 
 
 def _right_path(context, builder, at, args, D):
-    """The right path's new vector, stored at ``PR[wh + 1:]``, and the sums with it, stored at ``srow[cb:]``."""
-    PR_, rh_, wh_, crow_, cb_, mh_, qh_, p1_, srow_ = args[:9]
-    cost = _load(context, builder, at[3], crow_, cb_, D)
-    vh = _update(builder, _load(context, builder, at[0], PR_, _index(builder, rh_), D), cost, mh_, qh_, p1_, D)
-    _store(context, builder, vh, at[0], PR_, _index(builder, wh_), D)
-    sums = builder.add(vh, _load(context, builder, at[8], srow_, cb_, D))
-    _store(context, builder, sums, at[8], srow_, cb_, D)
+    """The right path's new vector from the previous one (a ``PathVector``) and the sums with it, stored at
+    ``srow[cb:]``."""
+    R_, crow_, cb_, mh_, qh_, p1_, srow_ = args[:7]
+    vh = _update(builder, R_, _load(context, builder, at[1], crow_, cb_, D), mh_, qh_, p1_, D)
+    sums = builder.add(vh, _load(context, builder, at[6], srow_, cb_, D))
+    _store(context, builder, sums, at[6], srow_, cb_, D)
     return vh, sums
 
 
 @intrinsic
-def right_path_sum(typingctx, PR, rh, wh, crow, cb, mh, qh, p1, srow, tag):
-    """The right path of one pixel (``PR``, as :func:`top_path`) added to its sums ``srow[cb:][:D]`` in place;
-    returns ``(the path vector's minimum, the sums' minimum)``."""
-    _check((PR, crow, srow), (rh, wh, cb), (mh, qh, p1))
+def right_path_sum(typingctx, R, crow, cb, mh, qh, p1, srow, tag):
+    """The right path of one pixel (from the previous pixel's vector ``R``, a ``PathVector``) added to its sums
+    ``srow[cb:][:D]`` in place; returns ``(the path vector's minimum, the sums' minimum, the new vector)``."""
+    _check((crow, srow), (cb,), (mh, qh, p1))
     D = _tag_d(tag)
-    result = types.UniTuple(types.int16, 2)
+    _check_vectors(D, R)
+    result = types.Tuple((types.int16, types.int16, R))
 
     def codegen(context, builder, signature, args):
         vh, sums = _right_path(context, builder, signature.args, args, D)
-        return context.make_tuple(builder, result, [_umin(builder, vh, D), _umin(builder, sums, D)])
+        return context.make_tuple(builder, result, [_umin(builder, vh, D), _umin(builder, sums, D), vh])
 
-    return result(PR, rh, wh, crow, cb, mh, qh, p1, srow, tag), codegen
+    return result(R, crow, cb, mh, qh, p1, srow, tag), codegen
 
 
 @intrinsic
-def right_path_view(typingctx, PR, rh, wh, crow, cb, mh, qh, p1, srow, VV, VK, tag):
+def right_path_view(typingctx, R, crow, cb, mh, qh, p1, srow, VV, VK, tag):
     """:func:`right_path_sum`, and the right view's winners of the pixel's D right pixels in a window carried from
     pixel to pixel.
 
     Pixel x's sums land on the right pixels q = W - 1 - x + k (``select.right_view_row``): D consecutive ones, one
-    further each pixel of the right-to-left sweep. ``VV[:D]`` / ``VK[:D]`` hold the lowest sum so far and its
-    index for the previous pixel's D right pixels; no later pixel reaches the first of them, so it is returned,
+    further each pixel of the right-to-left sweep. ``VV`` / ``VK`` (``PathVector``) hold the lowest sum so far and
+    its index for the previous pixel's D right pixels; no later pixel reaches the first of them, so it is returned,
     final, and the window moves on by one lane (the new last lane: ``INT16_MAX`` / -1, nothing yet) before this
     pixel's sums enter it. In the window the sums of lane k have index k, and the rule is ``right_view_row``'s
     (a lower sum, or the same with a lower index), so the winners are the same. Returns ``(the path vector's
-    minimum, the sums' minimum, the finished right pixel's sum, its index)``; ``VV`` and ``VK`` must start with
-    ``INT16_MAX`` / -1 (a row's first pixel returns them), and hold the row's last D right pixels after its last.
+    minimum, the sums' minimum, the finished right pixel's sum, its index, the new path vector, VV, VK)``; ``VV``
+    and ``VK`` must start as ``INT16_MAX`` / -1 (a row's first pixel returns them), and hold the row's last D right
+    pixels after its last.
     """
-    _check((PR, crow, srow, VV, VK), (rh, wh, cb), (mh, qh, p1))
+    _check((crow, srow), (cb,), (mh, qh, p1))
     D = _tag_d(tag)
-    result = types.UniTuple(types.int16, 4)
+    _check_vectors(D, R, VV, VK)
+    result = types.Tuple((types.int16, types.int16, types.int16, types.int16, R, VV, VK))
 
     def codegen(context, builder, signature, args):
-        at = signature.args
-        vh, sums = _right_path(context, builder, at, args, D)
-        VV_, VK_ = args[9], args[10]
+        vh, sums = _right_path(context, builder, signature.args, args, D)
+        old_v, old_k = args[7], args[8]
         zero = ir.Constant(_I32, 0)
         mask = ir.Constant(ir.VectorType(_I32, D), [k + 1 for k in range(D)])
         vt = ir.VectorType(_I16, D)
-        old_v = _load(context, builder, at[9], VV_, zero, D)
-        old_k = _load(context, builder, at[10], VK_, zero, D)
         win_v = builder.shuffle_vector(old_v, ir.Constant(vt, [_INT16_MAX] * D), mask)
         win_k = builder.shuffle_vector(old_k, ir.Constant(vt, [-1] * D), mask)
         lanes = ir.Constant(vt, list(range(D)))
         take = builder.or_(builder.icmp_signed("<", sums, win_v),
                            builder.and_(builder.icmp_signed("==", sums, win_v), builder.icmp_signed("<", lanes, win_k)))
-        _store(context, builder, _smin(builder, sums, win_v), at[9], VV_, zero, D)
-        _store(context, builder, builder.select(take, lanes, win_k), at[10], VK_, zero, D)
         return context.make_tuple(builder, result, [
             _umin(builder, vh, D), _umin(builder, sums, D), builder.extract_element(old_v, zero),
-            builder.extract_element(old_k, zero)])
+            builder.extract_element(old_k, zero), vh, _smin(builder, sums, win_v), builder.select(take, lanes, win_k)])
 
-    return result(PR, rh, wh, crow, cb, mh, qh, p1, srow, VV, VK, tag), codegen
+    return result(R, crow, cb, mh, qh, p1, srow, VV, VK, tag), codegen

@@ -16,8 +16,9 @@ The directions are OpenCV MODE_SGBM_3WAY's: from the left, from above, from the 
   uniqueness, subpixel, left-right check).
 
 Where D is a multiple of 32 a pixel's path updates are made on whole LLVM vectors (:mod:`.pathvec`: the previous
-vector loaded once, its neighbours at d +- 1 made in registers), elsewhere by the loops over the disparities; the
-same values either way.
+vector loaded once, its neighbours at d +- 1 made in registers; the left / right paths' vectors and the right
+view's window carried from pixel to pixel in registers), elsewhere by the loops over the disparities; the same
+values either way.
 
 Per thread this touches about 5 x W x D x 2 bytes (1.6 MB at 1242 x 128), which stays in L2, against a
 H x W x D volume written and read back by the two-pass kernel. The values are those of
@@ -40,8 +41,8 @@ from stereo_classic.matching._kernels.cost import (
     row_cost,
 )
 from stereo_classic.matching._kernels.intrinsics import add16, umin16
-from stereo_classic.matching._kernels.pathvec import (right_path_sum, right_path_view, top_and_left, top_path,
-                                                      vector_paths)
+from stereo_classic.matching._kernels.pathvec import (right_path_sum, right_path_view, store_vector, top_and_left,
+                                                      top_path, vector_of, vector_paths)
 from stereo_classic.matching._kernels.select import right_view_row, select_row
 from stereo_classic.matching._kernels.tags import disparity_tag, tag_disparities
 
@@ -106,7 +107,8 @@ class RowPassBuffers(NamedTuple):
     min_v : (W + H + 1,) int16
         Minimum of each top-path vector.
     path_h : (2 * E,) int16
-        The horizontal path's previous and current vector (their minima are carried in registers).
+        The horizontal path's previous and current vector (their minima are carried in registers), for the loops:
+        where D is a multiple of 32 the vectors themselves are carried in registers (``pathvec.PathVector``).
     path_r : (2 * E,) int16
         The same for the right path (the row above's, swept beside the left path of the row: its own array, as
         two slots of ``path_h`` cost the loops their speed-up).
@@ -116,9 +118,6 @@ class RowPassBuffers(NamedTuple):
         0 .. D - 1 (the first index of the minimum is found with vector selects).
     right_sums, right_k : (W + D - 1,) int16
         Right view: best sum and its disparity index per right pixel.
-    view_v, view_k : (E,) int16
-        Where D is a multiple of 32: the right view's window carried through a row's right-to-left sweep
-        (``pathvec.right_path_view``; first element on a cache line).
     best : (W,) int64
         Winning disparity index per pixel of the row (-1: none).
     counts : (3,) int64
@@ -139,8 +138,6 @@ class RowPassBuffers(NamedTuple):
     k_index: np.ndarray
     right_sums: np.ndarray
     right_k: np.ndarray
-    view_v: np.ndarray
-    view_k: np.ndarray
     best: np.ndarray
     counts: np.ndarray
     claim_cost: np.ndarray
@@ -178,7 +175,6 @@ def row_pass_buffers(H: int, W: int, D: int, warm_rows: int = 0) -> RowPassBuffe
         path_r=path_slots(2, D),
         row_min=aligned_empty(W, np.int16), k_index=np.arange(D, dtype=np.int16),
         right_sums=aligned_empty(W + D - 1, np.int16), right_k=aligned_empty(W + D - 1, np.int16),
-        view_v=aligned_empty(slot_size(D), np.int16), view_k=aligned_empty(slot_size(D), np.int16),
         best=np.empty(W, np.int64), counts=np.zeros(3, np.int64),
         claim_cost=np.empty(W, np.int16), claim_k=np.empty(W, np.int16), tag=disparity_tag(D))
 
@@ -188,7 +184,7 @@ def row_pass_bytes(H: int, W: int, D: int, warm_rows: int = 0) -> int:
     E = slot_size(D)
     slots = W + H + 1
     return (2 * (warm_rows + 4) * W * D + 2 * slots * E + 2 * slots + 2 * 2 * 2 * E + 2 * W + 2 * D
-            + 2 * 2 * (W + D - 1) + 2 * 2 * E + 8 * W + 24 + 2 * 2 * W)
+            + 2 * 2 * (W + D - 1) + 8 * W + 24 + 2 * 2 * W)
 
 
 @njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
@@ -233,8 +229,6 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     rv = bufs.right_sums
     rd = bufs.right_k
     right_view = settings.right_view
-    VV = bufs.view_v
-    VK = bufs.view_k
     Sf = out.sums
     D = tag_disparities(bufs.tag)  # len(bufs.k_index), as a constant: compiled once per D
     E = slot_size(D)
@@ -269,8 +263,12 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
         for k in range(D):
             PH[k + 1] = zero
             PR[k + 1] = zero
-            VV[k] = big
-            VK[k] = top
+        # where D is a multiple of 32 the left / right paths' previous vectors and the right view's window are
+        # carried from pixel to pixel in registers (pathvec.PathVector), not in PH / PR
+        hvec = vector_of(zero, bufs.tag)
+        rvec = vector_of(zero, bufs.tag)
+        wvv = vector_of(big, bufs.tag)
+        wvk = vector_of(top, bufs.tag)
         mh_run = zero  # the left / right path's previous minimum, carried in a register
         mr_run = zero
         yp = y - 1
@@ -286,12 +284,13 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
                 wh = whs * E
                 rh = rhs * E
                 if fused_view:
-                    nh, ns, fv, fk = right_path_view(PR, rh, wh, crow_p, cb, mh, qh, p1, srow_p, VV, VK, bufs.tag)
+                    nh, ns, fv, fk, rvec, wvv, wvk = right_path_view(rvec, crow_p, cb, mh, qh, p1, srow_p, wvv, wvk,
+                                                                     bufs.tag)
                     if i > 0:  # right pixel i - 1 is complete
                         rv[i - 1] = fv
                         rd[i - 1] = fk
                 elif vec:
-                    nh, ns = right_path_sum(PR, rh, wh, crow_p, cb, mh, qh, p1, srow_p, bufs.tag)
+                    nh, ns, rvec = right_path_sum(rvec, crow_p, cb, mh, qh, p1, srow_p, bufs.tag)
                 else:
                     nh = top
                     ns = top
@@ -330,8 +329,8 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
                     wh = whs * E
                     rh = rhs * E
                     if vec:
-                        nv, nh = top_and_left(PV, rvb, wv, PH, rh, wh, crow, cb, mv, qv, p1v, mh, qh, p1, srow,
-                                              bufs.tag)
+                        nv, nh, hvec = top_and_left(PV, rvb, wv, hvec, crow, cb, mv, qv, p1v, mh, qh, p1, srow,
+                                                    bufs.tag)
                     else:
                         nh = top
                         for k in range(D):
@@ -348,9 +347,8 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
         if not prev:
             continue
         if fused_view:  # the window holds the row's last D right pixels
-            for k in range(D):
-                rv[W - 1 + k] = VV[k]
-                rd[W - 1 + k] = VK[k]
+            store_vector(rv, W - 1, wvv)
+            store_vector(rd, W - 1, wvk)
         elif right_view:
             right_view_row(srow_p, rv, rd, W, bufs.tag)
         if plan.keep_sums:

@@ -8,8 +8,8 @@ from numba import njit
 
 from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr
 from stereo_classic.matching._kernels.intrinsics import add16, umin16
-from stereo_classic.matching._kernels.pathvec import (right_path_sum, right_path_view, top_and_left, top_path,
-                                                      vector_paths)
+from stereo_classic.matching._kernels.pathvec import (load_vector, right_path_sum, right_path_view, store_vector,
+                                                      top_and_left, top_path, vector_of, vector_paths)
 from stereo_classic.matching._kernels.rowpass import path_slots, slot_size
 from stereo_classic.matching._kernels.select import right_view_row
 from stereo_classic.matching._kernels.tags import disparity_tag, tag_disparities
@@ -53,8 +53,10 @@ def _loops(PV, rv, wv, PH, rh, wh, PR, rr, wr, crow, cb, mv, qv, p1v, mh, qh, p1
 @njit(cache=False)
 def _vectors(PV, rv, wv, PH, rh, wh, PR, rr, wr, crow, cb, mv, qv, p1v, mh, qh, p1, srow, srow_r, tag):
     nt = top_path(PV, rv, wv + 2 * len(PV) // 4, crow, cb, mv, qv, p1v, tag)
-    nv, nh = top_and_left(PV, rv, wv, PH, rh, wh, crow, cb, mv, qv, p1v, mh, qh, p1, srow, tag)
-    nr, ns = right_path_sum(PR, rr, wr, crow, cb, mh, qh, p1, srow_r, tag)
+    nv, nh, H = top_and_left(PV, rv, wv, load_vector(PH, rh + 1, tag), crow, cb, mv, qv, p1v, mh, qh, p1, srow, tag)
+    store_vector(PH, wh + 1, H)  # the horizontal paths' vectors are the kernel's registers: stored to compare them
+    nr, ns, R = right_path_sum(load_vector(PR, rr + 1, tag), crow, cb, mh, qh, p1, srow_r, tag)
+    store_vector(PR, wr + 1, R)
     return nt, nv, nh, nr, ns
 
 
@@ -104,35 +106,33 @@ def test_whole_vector_updates_equal_the_loops(D):
 
 
 @njit(cache=False)
-def _right_sweep(PR, crow, srow, VV, VK, rv, rd, p1, p2, fused, tag):
-    """A row's right path from right to left, as the kernel runs it: with the right view in its window (``fused``:
-    right pixel i - 1 finished at column step i, the last D at the end) or with ``right_path_sum`` alone."""
+def _right_sweep(PR, crow, srow, rv, rd, p1, p2, fused, tag):
+    """A row's right path from right to left, as the kernel runs it (the path vector in registers): with the right
+    view in its window (``fused``: right pixel i - 1 finished at column step i, the last D at the end) or with
+    ``right_path_sum`` alone. The last path vector is stored to ``PR[1:]``."""
     D = tag_disparities(tag)
-    E = len(PR) // 2
     W = len(srow) // D
-    for k in range(D):
-        VV[k] = np.int16(32767)
-        VK[k] = np.int16(-1)
+    R = vector_of(np.int16(0), tag)
+    VV = vector_of(np.int16(32767), tag)
+    VK = vector_of(np.int16(-1), tag)
     m = np.int16(0)
     minima = np.empty((W, 2), np.int16)
     for i in range(W):
         x = W - 1 - i
-        rh = (i & 1) * E
-        wh = E - rh
         if fused:
-            nh, ns, fv, fk = right_path_view(PR, rh, wh, crow, x * D, m, add16(m, p2), p1, srow, VV, VK, tag)
+            nh, ns, fv, fk, R, VV, VK = right_path_view(R, crow, x * D, m, add16(m, p2), p1, srow, VV, VK, tag)
             if i > 0:
                 rv[i - 1] = fv
                 rd[i - 1] = fk
         else:
-            nh, ns = right_path_sum(PR, rh, wh, crow, x * D, m, add16(m, p2), p1, srow, tag)
+            nh, ns, R = right_path_sum(R, crow, x * D, m, add16(m, p2), p1, srow, tag)
         minima[x, 0] = nh
         minima[x, 1] = ns
         m = nh
+    store_vector(PR, 1, R)
     if fused:
-        for k in range(D):
-            rv[W - 1 + k] = VV[k]
-            rd[W - 1 + k] = VK[k]
+        store_vector(rv, W - 1, VV)
+        store_vector(rd, W - 1, VK)
     return minima
 
 
@@ -143,7 +143,6 @@ def test_right_view_in_the_sweep_equals_its_own_pass(D):
     index must win), sums at INT16_MAX (which never claim a right pixel), rows narrower and wider than D."""
     rng = np.random.default_rng(7 * D)
     tag = disparity_tag(D)
-    E = slot_size(D)
     for trial in range(24):
         W = [1, 5, D - 1, D + 3, 3 * D + 7][trial % 5]
         hi = [3, 40, 2000][trial % 3]
@@ -158,8 +157,7 @@ def test_right_view_in_the_sweep_equals_its_own_pass(D):
             sr = srow.copy()
             rv = np.full(W + D - 1, -5, np.int16)
             rd = np.full(W + D - 1, -5, np.int16)
-            minima = _right_sweep(PR, crow, sr, np.empty(E, np.int16), np.empty(E, np.int16), rv, rd, np.int16(9),
-                                  np.int16(hi // 2 + 10), fused, tag)
+            minima = _right_sweep(PR, crow, sr, rv, rd, np.int16(9), np.int16(hi // 2 + 10), fused, tag)
             if not fused:
                 right_view_row(sr, rv, rd, W, tag)
             got.append((PR, sr, minima, rv, rd))
@@ -168,7 +166,8 @@ def test_right_view_in_the_sweep_equals_its_own_pass(D):
 
 
 def test_wrong_buffers_are_refused_when_compiled():
-    """A buffer of another dtype or a non-int16 penalty fails at compile time, naming what it got (not deep in LLVM)."""
+    """A buffer of another dtype, a non-int16 penalty or a path vector of another range fails at compile time, naming
+    what it got (not deep in LLVM)."""
     from numba.core.errors import TypingError
 
     @njit(cache=False)
@@ -180,3 +179,10 @@ def test_wrong_buffers_are_refused_when_compiled():
         call(np.zeros(64, np.float32), np.zeros(32, np.int16), np.int16(1), tag)
     with pytest.raises((TypeError, TypingError), match="must be int16, got int64"):
         call(path_slots(1, 32), np.zeros(32, np.int16), 1, tag)
+
+    @njit(cache=False)
+    def right(crow, srow, tag, other):  # a previous vector of another range than the tag's
+        return right_path_sum(vector_of(np.int16(0), other), crow, 0, np.int16(0), np.int16(9), np.int16(1), srow, tag)
+
+    with pytest.raises((TypeError, TypingError), match="path vector of 32 lanes expected, got PathVector\\(64\\)"):
+        right(np.zeros(64, np.int16), np.zeros(64, np.int16), tag, disparity_tag(64))
