@@ -14,9 +14,9 @@ registers (no store and load of each path vector a pixel, which the next pixel w
 disparities, 2 threads, six rounds alternated: 11.96 -> 11.56 ms a call, docs/matching.md "Eleventh round").
 
 The functions are numba intrinsics; D comes from the buffers' ``tags.disparity_tag`` type, so each range gets its
-own code, as the kernels do. :func:`vector_paths` says where they are used: D a whole number of 512-bit vectors of
-int16 (a multiple of 32), where LLVM splits the vector into whole registers (measured: docs/matching.md, "Tenth
-round").
+own code, as the kernels do. :func:`vector_paths` says where they are used: D = 32, 64 or 128, one, two or four
+512-bit registers of int16 (docs/matching.md, "Tenth round" and "Eleventh round": at 96 and 160 the kernel with the
+vectors ran 1.2-1.4x the loops' time, at 192 and 256 the same; with the vectors carried in registers 3-5x).
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ from stereo_classic.matching._kernels.tags import _TAG_BLOCK
 __all__ = ["VECTOR_BLOCK", "PathVector", "load_vector", "right_path_sum", "right_path_view", "store_vector",
            "top_and_left", "top_path", "vector_of", "vector_paths"]
 
-#: ``vector_paths`` holds for D a multiple of this (int16 lanes of one 512-bit register).
+#: int16 lanes of one 512-bit register: ``vector_paths`` holds for D = 1, 2 or 4 times this.
 VECTOR_BLOCK = 32
 assert VECTOR_BLOCK == _TAG_BLOCK  # vector_paths reads whole blocks off the tag
 
@@ -66,8 +66,16 @@ def _tag_d(tag: types.Type) -> int:
 @njit(cache=True, nogil=True, inline="always")
 def vector_paths(tag):  # pragma: no cover - numba
     """Whether the one-sweep kernel updates its paths with this module's intrinsics for the tag's D (a constant where
-    the kernel is compiled, so the other branch is dropped)."""
-    return len(tag[1]) == 0 and len(tag[0]) > 0  # D // 32 whole blocks of VECTOR_BLOCK (== _TAG_BLOCK) lanes
+    the kernel is compiled, so the other branch is dropped): D = 32, 64 or 128.
+
+    Those vectors are one, two or four whole 512-bit registers, and the four the kernel carries from pixel to pixel
+    (the left and right paths, the right view's window of sums and indices) fit the 32 registers. Three or five
+    registers (96, 160) LLVM shuffles and reduces badly (KITTI pair, 2 threads: 96 disparities 23.1 ms with the
+    loops, 31.2 with the vectors loaded per pixel, 43.6 with the right view's window, 108 with the vectors in
+    registers); at 192 and 256 the vectors gained nothing (35.6 / 36.7, 44.3 / 43.2 ms) and eight registers a path
+    leave none to carry them in."""
+    n = len(tag[0])  # D // 32 whole blocks of VECTOR_BLOCK (== _TAG_BLOCK) lanes, len(tag[1]) the rest
+    return len(tag[1]) == 0 and (n == 1 or n == 2 or n == 4)
 
 
 def _vector_ptr(context, builder, arrty, arr, index, D):

@@ -159,8 +159,8 @@ def right_view_row(srow, rv, rd, W, tag):  # pragma: no cover - numba
 
     Pixel x adds its sums to q = W - 1 - x + k. Consecutive pixels overlap by D - 1 entries at an offset of one
     element, so a plain sweep over x reads every vector across two stores still in flight (store forwarding
-    fails: measured 18 ms a KITTI frame). The sweep is made in 16 rounds instead, round p taking x = p, p + 16,
-    ...: within a round consecutive pixels are one whole 16-lane vector apart. The tie rule does not depend on
+    fails: measured 18 ms a KITTI frame). The sweep is made in 32 rounds instead (``_ROUNDS``), round p taking x = p,
+    p + 32, ...: within a round consecutive pixels are one whole 32-lane vector apart. The tie rule does not depend on
     the order (lower sum, then lower index).
     """
     D = tag_disparities(tag)  # disparities per pixel, a constant: compiled once per D (tags.py)
