@@ -10,15 +10,15 @@ The directions are OpenCV MODE_SGBM_3WAY's: from the left, from above, from the 
 * a right-to-left sweep adds the right path, keeping the complete sum in ``srow`` and its minimum per pixel;
   it runs one row behind, in the same pass over the columns as the next row's left-to-right sweep (two
   independent pixel-to-pixel chains side by side: at short ranges the chains' latency set the pace);
-* the right view's winners are found in the right-to-left sweep where D is a multiple of 32
+* the right view's winners are found in the right-to-left sweep where D is 32, 64 or 128
   (``pathvec.right_path_view``, a window of D right pixels carried from pixel to pixel), else by
   ``select.right_view_row`` over the finished row, and ``select.select_row`` resolves the row (winner-takes-all,
   uniqueness, subpixel, left-right check).
 
-Where D is a multiple of 32 a pixel's path updates are made on whole LLVM vectors (:mod:`.pathvec`: the previous
-vector loaded once, its neighbours at d +- 1 made in registers; the left / right paths' vectors and the right
-view's window carried from pixel to pixel in registers), elsewhere by the loops over the disparities; the same
-values either way.
+Where D is 32, 64 or 128 (``pathvec.vector_paths``) a pixel's path updates are made on whole LLVM vectors
+(:mod:`.pathvec`: the previous vector loaded once, its neighbours at d +- 1 made in registers; the left / right
+paths' vectors and the right view's window carried from pixel to pixel in registers), elsewhere by the loops over
+the disparities; the same values either way.
 
 Per thread this touches about 5 x W x D x 2 bytes (1.6 MB at 1242 x 128), which stays in L2, against a
 H x W x D volume written and read back by the two-pass kernel. The values are those of
@@ -108,7 +108,7 @@ class RowPassBuffers(NamedTuple):
         Minimum of each top-path vector.
     path_h : (2 * E,) int16
         The horizontal path's previous and current vector (their minima are carried in registers), for the loops:
-        where D is a multiple of 32 the vectors themselves are carried in registers (``pathvec.PathVector``).
+        where D is 32, 64 or 128 the vectors themselves are carried in registers (``pathvec.PathVector``).
     path_r : (2 * E,) int16
         The same for the right path (the row above's, swept beside the left path of the row: its own array, as
         two slots of ``path_h`` cost the loops their speed-up).
@@ -263,7 +263,7 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
         for k in range(D):
             PH[k + 1] = zero
             PR[k + 1] = zero
-        # where D is a multiple of 32 the left / right paths' previous vectors and the right view's window are
+        # where D is 32, 64 or 128 the left / right paths' previous vectors and the right view's window are
         # carried from pixel to pixel in registers (pathvec.PathVector), not in PH / PR
         hvec = vector_of(zero, bufs.tag)
         rvec = vector_of(zero, bufs.tag)
