@@ -260,11 +260,12 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
                 row_cost(images, cost, y, r == 0 and not cached, 1, cbufs, costs[slot])
         crow = costs[slot]
         crow_p = costs[slot_p]
-        for k in range(D):
-            PH[k + 1] = zero
-            PR[k + 1] = zero
         # where D is 32, 64 or 128 the left / right paths' previous vectors and the right view's window are
-        # carried from pixel to pixel in registers (pathvec.PathVector), not in PH / PR
+        # carried from pixel to pixel in registers (pathvec.PathVector): PH / PR serve the loops only
+        if not vec:
+            for k in range(D):
+                PH[k + 1] = zero
+                PR[k + 1] = zero
         hvec = vector_of(zero, bufs.tag)
         rvec = vector_of(zero, bufs.tag)
         wvv = vector_of(big, bufs.tag)
