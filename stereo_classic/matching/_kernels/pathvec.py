@@ -21,11 +21,13 @@ vectors ran 1.2-1.4x the loops' time, at 192 and 256 the same; with the vectors 
 
 from __future__ import annotations
 
+import llvmlite.binding as llvm
 from llvmlite import ir
 from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic, models, register_model
 
+from stereo_classic.matching._kernels import vectors
 from stereo_classic.matching._kernels.aggregate import _INT16_MAX, _SENTINEL
 from stereo_classic.matching._kernels.tags import _TAG_BLOCK
 
@@ -111,13 +113,74 @@ def _index(builder, value):
     return builder.add(value, ir.Constant(value.type, 1))
 
 
+def _pieces(builder, vector, D):
+    """The 32-lane registers of a ``<D x i16>`` vector (no instructions: the vector lives in them)."""
+    mask = ir.VectorType(_I32, VECTOR_BLOCK)
+    return [builder.shuffle_vector(vector, ir.Constant(vector.type, ir.Undefined),
+                                   ir.Constant(mask, list(range(i, i + VECTOR_BLOCK))))
+            for i in range(0, D, VECTOR_BLOCK)]
+
+
+def _joined(builder, pieces):
+    """The ``<D x i16>`` vector of 32-lane registers (the inverse of ``_pieces``)."""
+    while len(pieces) > 1:
+        n = 2 * len(pieces[0].type)
+        pieces = [builder.shuffle_vector(a, b, ir.Constant(ir.VectorType(_I32, n), list(range(n))))
+                  for a, b in zip(pieces[::2], pieces[1::2])]
+    return pieces[0]
+
+
+def _asm_permutes() -> bool:
+    """Whether ``_shifted`` writes its permutes out as ``vpermi2w``: where numba compiles for this machine's CPU with
+    512-bit vectors preferred (``vectors.STATE`` "wide": AVX-512 BW at full clock, no ``NUMBA_CPU_NAME`` /
+    ``NUMBA_CPU_FEATURES`` of the user's)."""
+    return vectors.STATE == "wide"
+
+
+#: ``_shifted``'s lowering (read when a kernel is compiled; the tests compile both).
+ASM_PERMUTES = _asm_permutes()
+if ASM_PERMUTES:
+    llvm.initialize_native_asmparser()  # numba's JIT reads the inline assembly with it (it sets up the rest)
+
+
+def _permute2(builder, a, b, index):
+    """The two-table word permute of two 32-lane registers: lane k of the result is ``a[index[k]]`` for
+    ``index[k] < 32``, else ``b[index[k] - 32]``, as one ``vpermi2w``."""
+    fnty = ir.FunctionType(a.type, [a.type, a.type, a.type])
+    return builder.asm(fnty, "vpermi2w $2, $1, $0", "=v,v,v,0", [a, b, ir.Constant(a.type, index)], False)
+
+
+def _shifted(builder, vector, fill, up, D):
+    """The lanes of ``vector`` moved by one: ``up``: lane k gets lane k + 1 (the last ``fill``), else lane k - 1 (the
+    first ``fill``).
+
+    Where ``ASM_PERMUTES``, one ``vpermi2w`` a register, written out: LLVM makes the move two shuffles a register
+    (``valignq`` + ``vpalignr``), and this machine runs one shuffle a cycle whichever it is (while it runs two
+    adds or minima), so the sweep's pace is set by them (docs/matching.md, "Twelfth round")."""
+    vt = ir.VectorType(_I16, D)
+    n = D // VECTOR_BLOCK
+    if not ASM_PERMUTES or D % VECTOR_BLOCK or n & (n - 1):  # whole registers, 1, 2, 4, ... of them (``_joined``)
+        edge = ir.Constant(vt, [fill] * D)
+        mask = ir.VectorType(_I32, D)
+        if up:
+            return builder.shuffle_vector(vector, edge, ir.Constant(mask, [k + 1 for k in range(D)]))
+        return builder.shuffle_vector(edge, vector, ir.Constant(mask, [0] + [D + k - 1 for k in range(1, D)]))
+    regs = _pieces(builder, vector, D)
+    edge = ir.Constant(ir.VectorType(_I16, VECTOR_BLOCK), [fill] * VECTOR_BLOCK)
+    if up:
+        index = list(range(1, VECTOR_BLOCK + 1))
+        return _joined(builder, [_permute2(builder, regs[i], regs[i + 1] if i + 1 < len(regs) else edge, index)
+                                 for i in range(len(regs))])
+    index = [VECTOR_BLOCK - 1] + list(range(VECTOR_BLOCK, 2 * VECTOR_BLOCK - 1))
+    return _joined(builder, [_permute2(builder, regs[i - 1] if i > 0 else edge, regs[i], index)
+                             for i in range(len(regs))])
+
+
 def _update(builder, prev, cost, m, q, p1, D):
     """``_lr`` for every disparity: ``cost - m + min(prev, min(prev[d - 1], prev[d + 1]) + p1, q)``, the sentinel
     beyond either end of the range."""
-    sentinel = ir.Constant(ir.VectorType(_I16, D), [_SENTINEL] * D)
-    mask = ir.VectorType(_I32, D)
-    below = builder.shuffle_vector(sentinel, prev, ir.Constant(mask, [0] + [D + k - 1 for k in range(1, D)]))
-    above = builder.shuffle_vector(prev, sentinel, ir.Constant(mask, [k + 1 for k in range(D)]))
+    below = _shifted(builder, prev, _SENTINEL, False, D)
+    above = _shifted(builder, prev, _SENTINEL, True, D)
     step = builder.add(_smin(builder, below, above), _splat(builder, p1, D))
     best = _smin(builder, _smin(builder, prev, step), _splat(builder, q, D))
     return builder.add(builder.sub(cost, _splat(builder, m, D)), best)
@@ -270,10 +333,9 @@ def right_path_view(typingctx, R, crow, cb, mh, qh, p1, srow, VV, VK, tag):
         vh, sums = _right_path(context, builder, signature.args, args, D)
         old_v, old_k = args[7], args[8]
         zero = ir.Constant(_I32, 0)
-        mask = ir.Constant(ir.VectorType(_I32, D), [k + 1 for k in range(D)])
         vt = ir.VectorType(_I16, D)
-        win_v = builder.shuffle_vector(old_v, ir.Constant(vt, [_INT16_MAX] * D), mask)
-        win_k = builder.shuffle_vector(old_k, ir.Constant(vt, [-1] * D), mask)
+        win_v = _shifted(builder, old_v, _INT16_MAX, True, D)
+        win_k = _shifted(builder, old_k, -1, True, D)
         lanes = ir.Constant(vt, list(range(D)))
         take = builder.or_(builder.icmp_signed("<", sums, win_v),
                            builder.and_(builder.icmp_signed("==", sums, win_v), builder.icmp_signed("<", lanes, win_k)))

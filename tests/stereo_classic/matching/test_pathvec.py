@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from numba import njit
+
+from stereo_classic.matching._kernels import pathvec, vectors
 
 from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr
 from stereo_classic.matching._kernels.intrinsics import add16, umin16
@@ -67,8 +71,27 @@ def test_vector_paths_only_for_one_two_or_four_registers():
         32, 64, 128]
 
 
+@pytest.fixture(params=[True, False], ids=["vpermi2w", "llvm-shuffles"])
+def compiled(request, monkeypatch):
+    """``_vectors`` and ``_right_sweep`` compiled afresh with each lowering of the lane moves (``pathvec._shifted``):
+    the written-out ``vpermi2w`` (where the CPU has AVX-512 BW) and LLVM's own shuffles (elsewhere)."""
+    if request.param and not pathvec._asm_permutes():
+        pytest.skip(f"512-bit vectors not in use ({vectors.STATE}): the kernels compile with LLVM's shuffles (the "
+                    "other parameter)")
+    monkeypatch.setattr(pathvec, "ASM_PERMUTES", request.param)
+    return SimpleNamespace(asm=request.param, vectors=njit(cache=False)(_vectors.py_func),
+                           right_sweep=njit(cache=False)(_right_sweep.py_func))
+
+
+def _lowered_as_asked(fn, asm):
+    """The compiled function moves its lanes with the written-out ``vpermi2w`` exactly when asked to (so that each
+    parameter checks its own lowering; LLVM's shuffles may be ``vpermi2w`` too, but not inline assembly)."""
+    text = "".join(fn.inspect_llvm(sig) for sig in fn.signatures)
+    assert ('asm "vpermi2w' in text) == asm
+
+
 @pytest.mark.parametrize("D", [32, 64, 96, 128, 160])
-def test_whole_vector_updates_equal_the_loops(D):
+def test_whole_vector_updates_equal_the_loops(D, compiled):
     """Every stored value and every minimum is the loops', bit for bit, at the kernels' value ranges: path values up to
     a few thousand (int16 sums of three of them stay far from the wrap), the sentinel either end of each slot, costs
     that make neighbours win and lose, penalties from the smallest to the largest the kernels give."""
@@ -95,7 +118,7 @@ def test_whole_vector_updates_equal_the_loops(D):
         qh = np.int16(mh + rng.integers(p1 + 1, 1400))
         bufs = [(PV.copy(), PH.copy(), PR.copy(), np.zeros(W * D, np.int16), srow_r.copy()) for _ in range(2)]
         got = []
-        for fn, (pv, ph, pr, sr, srr) in zip((_loops, _vectors), bufs):
+        for fn, (pv, ph, pr, sr, srr) in zip((_loops, compiled.vectors), bufs):
             got.append(fn(pv, E, 0, ph, E, 0, pr, E, 0, crow, x * D, mv, qv, p1v, mh, qh, p1, sr, srr, tag))
         assert got[0] == got[1], (D, trial)
         for want, have in zip(bufs[0], bufs[1]):
@@ -104,6 +127,7 @@ def test_whole_vector_updates_equal_the_loops(D):
         for P in bufs[1][:3]:
             slots = P.reshape(-1, E)
             assert np.all(slots[:, 0] == _SENTINEL) and np.all(slots[:, D + 1] == _SENTINEL)
+    _lowered_as_asked(compiled.vectors, compiled.asm and D in (32, 64, 128))
 
 
 @njit(cache=False)
@@ -138,7 +162,7 @@ def _right_sweep(PR, crow, srow, rv, rd, p1, p2, fused, tag):
 
 
 @pytest.mark.parametrize("D", [32, 64, 128])
-def test_right_view_in_the_sweep_equals_its_own_pass(D):
+def test_right_view_in_the_sweep_equals_its_own_pass(D, compiled):
     """``right_path_view`` gives the sums, minima and path vectors of ``right_path_sum`` and the right view of
     ``select.right_view_row`` over the finished sums, bit for bit: few distinct values (many ties, where the lowest
     index must win), sums at INT16_MAX (which never claim a right pixel), rows narrower and wider than D."""
@@ -158,12 +182,13 @@ def test_right_view_in_the_sweep_equals_its_own_pass(D):
             sr = srow.copy()
             rv = np.full(W + D - 1, -5, np.int16)
             rd = np.full(W + D - 1, -5, np.int16)
-            minima = _right_sweep(PR, crow, sr, rv, rd, np.int16(9), np.int16(hi // 2 + 10), fused, tag)
+            minima = compiled.right_sweep(PR, crow, sr, rv, rd, np.int16(9), np.int16(hi // 2 + 10), fused, tag)
             if not fused:
                 right_view_row(sr, rv, rd, W, tag)
             got.append((PR, sr, minima, rv, rd))
         for want, have in zip(*got):
             np.testing.assert_array_equal(have, want, err_msg=f"D={D} trial={trial}")
+    _lowered_as_asked(compiled.right_sweep, compiled.asm)
 
 
 def test_wrong_buffers_are_refused_when_compiled():
