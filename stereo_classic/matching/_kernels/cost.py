@@ -12,7 +12,7 @@ Costs where ``x - min_disparity - k`` falls outside the image are replaced by ``
 SAD cost (the paper's n x n window, with its "brightness processing"): per-pixel difference
 ``|sobel_L - sobel_R| + |I_L - I_R| // 4`` where ``sobel`` is the horizontal Sobel response clipped
 to +-31 (OpenCV StereoSGBM's prefilter), summed over ``block_size x block_size`` with running
-sums (a column sum per (x, k) updated by one row in, one row out; a running sum along x), borders
+sums (a column sum per (x, k) updated by one row in, one row out, :mod:`.colsums`; a running sum along x), borders
 replicated, then right-shifted by ``sad_shift`` so that the SGM sums fit int16.
 """
 
@@ -22,12 +22,11 @@ from typing import NamedTuple
 
 import numpy as np
 from numba import njit
-from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
-from stereo_classic.matching._kernels.features import (FEATURE_QUANT, FEATURE_SCALE, FEATURES, _clamp,
+from stereo_classic.matching._kernels.colsums import sad_colsum_advance, sad_colsum_init, sad_hsum_init
+from stereo_classic.matching._kernels.features import (FEATURE_QUANT, FEATURE_SCALE, FEATURES,
                                                        feature_row_cost, reverse_code_row)
 from stereo_classic.matching._kernels.intrinsics import (
-    absdiff16,
     add16,
     lshr16,
     max16,
@@ -36,9 +35,9 @@ from stereo_classic.matching._kernels.intrinsics import (
     mullo16,
     mulshr16,
     popxor16,
-    shr16,
     sub16,
 )
+from stereo_classic.matching._kernels.pipeline import NoAliasCompiler
 from stereo_classic.matching._kernels.tags import tag_disparities
 
 # ``_nrt=False``: kernels that run per row and allocate nothing, compiled without numba's reference counts on their
@@ -262,17 +261,6 @@ def sad_prefilter(image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 # tests compare with the numpy reference is computed by exactly the code the fast path runs).
 
 
-class NoAliasCompiler(CompilerBase):
-    """numba's nopython pipeline with its ``noalias`` flag (numba uses it for parfors): the array
-    arguments are declared to LLVM as not aliasing each other, so the vectorised loops need no
-    runtime overlap checks per pixel (measured: -20 % time in the passes). Callers must never pass
-    the same buffer twice (``_run`` allocates a separate placeholder for every unused argument)."""
-
-    def define_pipelines(self):
-        self.state.flags.noalias = True
-        return [DefaultPassBuilder.define_nopython_pipeline(self.state)]
-
-
 _U = np.uint64  # unsigned indices: numba adds no negative-index wraparound, LLVM emits plain vector loads
 
 
@@ -323,114 +311,6 @@ def valid_range(x, W, dmin, D):  # pragma: no cover - numba
     return max(0, x - dmin - W + 1), min(D - 1, x - dmin)
 
 
-@njit(_nrt=False, cache=True, nogil=True)
-def sad_reverse_row(rsob, rint, y, srev, irev, dmin, h, intensity):  # pragma: no cover - numba
-    """srev[j] = rsob[y, clamp(W - 1 + h - dmin - j)], same for the intensity row (when ``intensity``)."""
-    W = rsob.shape[1]
-    K = W - 1 + h - dmin
-    for j in range(srev.shape[0]):
-        c = _clamp(K - j, W)
-        srev[j] = rsob[y, c]
-        if intensity:
-            irev[j] = rint[y, c]
-
-
-@njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def sad_colsum_row(colsum, add, lsob, lint, y, srev, irev, h, D, intensity):  # pragma: no cover - numba
-    """colsum[(x' + h) * D + k] (+/-)= AD(x', x' - dmin - k) for x' in [-h, W + h), one image row.
-
-    AD = |sobel_L - sobel_R| (+ |I_L - I_R| // 4 when ``intensity``, the SAD cost). srev/irev come from
-    sad_reverse_row for the same row.
-    """
-    W = lsob.shape[1]
-    two = np.int16(2)
-    for xp in range(-h, W + h):
-        c = _clamp(xp, W)
-        ls = lsob[y, c]
-        li = lint[y, c] if intensity else np.int16(0)
-        j0 = W - 1 + h - xp
-        base = (xp + h) * D
-        if add and intensity:
-            for k in range(D):
-                ad = add16(absdiff16(ls, srev[_U(j0 + k)]), shr16(absdiff16(li, irev[_U(j0 + k)]), two))
-                colsum[_U(base + k)] = add16(colsum[_U(base + k)], ad)
-        elif intensity:
-            for k in range(D):
-                ad = add16(absdiff16(ls, srev[_U(j0 + k)]), shr16(absdiff16(li, irev[_U(j0 + k)]), two))
-                colsum[_U(base + k)] = sub16(colsum[_U(base + k)], ad)
-        elif add:
-            for k in range(D):
-                colsum[_U(base + k)] = add16(colsum[_U(base + k)], absdiff16(ls, srev[_U(j0 + k)]))
-        else:
-            for k in range(D):
-                colsum[_U(base + k)] = sub16(colsum[_U(base + k)], absdiff16(ls, srev[_U(j0 + k)]))
-
-
-@njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D, intensity):  # pragma: no cover
-    """colsum = sum of AD rows clamp(y - h) .. clamp(y + h)."""
-    H = lsob.shape[0]
-    colsum[:] = 0
-    for yy in range(y - h, y + h + 1):
-        yc = _clamp(yy, H)
-        sad_reverse_row(rsob, rint, yc, srev, irev, dmin, h, intensity)
-        sad_colsum_row(colsum, True, lsob, lint, yc, srev, irev, h, D, intensity)
-
-
-@njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, tag,
-                       intensity):  # pragma: no cover
-    """Move the column window from row y - step to row y: add row y + step*h and drop row y - step*(h+1), in
-    one sweep over the column sums (``srev`` / ``irev`` hold two reversed rows: the one in, then the one out;
-    ``tag``: ``disparity_tag(D)``)."""
-    D = tag_disparities(tag)
-    H = lsob.shape[0]
-    W = lsob.shape[1]
-    yin = _clamp(y + step * h, H)
-    yout = _clamp(y - step * (h + 1), H)
-    if yin == yout:
-        return
-    L = W + 2 * h + D - 1
-    K = W - 1 + h - dmin
-    for j in range(L):
-        c = _clamp(K - j, W)
-        srev[j] = rsob[yin, c]
-        srev[L + j] = rsob[yout, c]
-        if intensity:
-            irev[j] = rint[yin, c]
-            irev[L + j] = rint[yout, c]
-    two = np.int16(2)
-    for xp in range(-h, W + h):
-        c = _clamp(xp, W)
-        a = lsob[yin, c]
-        b = lsob[yout, c]
-        j0 = W - 1 + h - xp
-        j1 = j0 + L
-        base = (xp + h) * D
-        if intensity:
-            ai = lint[yin, c]
-            bi = lint[yout, c]
-            for k in range(D):
-                add = add16(absdiff16(a, srev[_U(j0 + k)]), shr16(absdiff16(ai, irev[_U(j0 + k)]), two))
-                drop = add16(absdiff16(b, srev[_U(j1 + k)]), shr16(absdiff16(bi, irev[_U(j1 + k)]), two))
-                colsum[_U(base + k)] = add16(colsum[_U(base + k)], sub16(add, drop))
-        else:
-            for k in range(D):
-                colsum[_U(base + k)] = add16(colsum[_U(base + k)],
-                                             sub16(absdiff16(a, srev[_U(j0 + k)]), absdiff16(b, srev[_U(j1 + k)])))
-
-
-@njit(_nrt=False, cache=True, nogil=True)
-def sad_hsum_init(hsum, colsum, x, h, D):  # pragma: no cover - numba
-    """hsum[k] = sum of colsum over x' in [x - h, x + h]."""
-    for k in range(D):
-        hsum[k] = 0
-    for xp in range(x - h, x + h + 1):
-        base = (xp + h) * D
-        for k in range(D):
-            hsum[k] += colsum[_U(base + k)]
-
-
 @njit(cache=True, nogil=True, inline="always")
 def _hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k):  # pragma: no cover - numba
     """Census cost of disparity index k: the differing bits of the left code's quarters a0 .. a3 and the reversed
@@ -445,6 +325,40 @@ def _moved_sum(hsum, colsum, bout, bin_, k):  # pragma: no cover - numba
     hs = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
     hsum[k] = hs
     return hs
+
+
+@njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+def _census_columns(lcode, y, x0, W, rrev, hsum, colsum, crow, h, gmul, ghi, grad, narrow, tag):  # pragma: no cover
+    """``row_cost``'s census costs of the columns x0 .. W - 1 (with ``grad``: plus the gradient window mean, the window
+    sum moved on from column x - 1: x0 >= 1), in a function of its own: inside ``row_cost``, among its other costs'
+    branches and values, the same loop took about 4 ns a pixel more (OAK-D VGA, 64 disparities: ``row_cost`` over
+    the image 8.1 -> 6.9 ms; docs/matching.md, "Twelfth round")."""
+    D = tag_disparities(tag)
+    nrr = W + D - 1
+    gshift = np.int16(GRAD_SHIFT)
+    for x in range(x0, W):
+        cb = x * D
+        bin_ = (x + 2 * h) * D
+        bout = (x - 1) * D
+        a0 = lcode[y, x, 0]
+        a1 = lcode[y, x, 1]
+        a2 = lcode[y, x, 2]
+        a3 = lcode[y, x, 3]
+        j0 = W - 1 - x
+        j1 = j0 + nrr
+        j2 = j1 + nrr
+        j3 = j2 + nrr
+        if grad and narrow:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT
+            for k in range(D):
+                hs = _moved_sum(hsum, colsum, bout, bin_, k)
+                crow[_U(cb + k)] = add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k), mullo16(hs, gmul, gshift))
+        elif grad:  # the same through the high half of a 16-bit product
+            for k in range(D):
+                hs = _moved_sum(hsum, colsum, bout, bin_, k)
+                crow[_U(cb + k)] = add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k), mulhi16(hs, ghi))
+        else:
+            for k in range(D):
+                crow[_U(cb + k)] = _hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k)
 
 
 @njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
@@ -504,18 +418,17 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     nrr = W + D - 1
     if kind != SAD:  # census: four 16-bit quarters per code (vpopcntw), all in int16 lanes
         reverse_code_row(rcode, y, dmin, nrr, rrev)
-    for x in range(W):
+    # the census cost, and census + grad past the first column, in loops of their own (_census_columns)
+    fast = kind == CENSUS or (kind == CENSUS_GRAD and (narrow or high))
+    for x in range(W if not fast else (0 if kind == CENSUS else 1)):  # SAD, and census + grad's first column
         cb = x * D
-        bin_ = (x + 2 * h) * D
-        bout = (x - 1) * D
-        # census + grad past the first column moves the window sum on in its cost loop (one pass over D, below)
-        fused = grad and (narrow or high) and kind != SAD and x > 0
-        if grad and not fused:  # the window sum of the pixel: hsum over the column sums x - h .. x + h
-            if x == 0:
-                sad_hsum_init(hsum, colsum, 0, h, D)
-            else:
-                for k in range(D):
-                    hsum[k] = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
+        if x == 0:  # the window sum of the pixel: hsum over the column sums x - h .. x + h
+            sad_hsum_init(hsum, colsum, 0, h, D)
+        else:
+            bin_ = (x + 2 * h) * D
+            bout = (x - 1) * D
+            for k in range(D):
+                hsum[k] = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
         if kind == SAD:
             for k in range(D):
                 crow[_U(cb + k)] = max16(min16(lshr16(hsum[k], shift), cmax), floor[k])
@@ -528,31 +441,28 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
         j1 = j0 + nrr
         j2 = j1 + nrr
         j3 = j2 + nrr
-        if fused and narrow:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT
-            for k in range(D):
-                hs = _moved_sum(hsum, colsum, bout, bin_, k)
-                crow[_U(cb + k)] = add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k), mullo16(hs, gmul, gshift))
-        elif fused:  # the same through the high half of a 16-bit product
-            for k in range(D):
-                hs = _moved_sum(hsum, colsum, bout, bin_, k)
-                crow[_U(cb + k)] = add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k), mulhi16(hs, ghi))
-        elif grad and high:  # the first column: the window sum made above
+        if high:  # the window sum made above, through the high half of a 16-bit product
             for k in range(D):
                 crow[_U(cb + k)] = add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k), mulhi16(hsum[k], ghi))
-        elif grad:  # the same in 32-bit products (block size 1: grad_mul is 2 ** GRAD_SHIFT)
+        else:  # the same in 32-bit products (block size 1: grad_mul is 2 ** GRAD_SHIFT)
             for k in range(D):
                 crow[_U(cb + k)] = add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k),
                                          mulshr16(hsum[k], gmul, gshift))
-        else:
-            for k in range(D):
-                crow[_U(cb + k)] = _hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k)
+    if fast:
+        _census_columns(lcode, y, 0 if kind == CENSUS else 1, W, rrev, hsum, colsum, crow, h, gmul, ghi, grad, narrow,
+                        bufs.tag)
     nd = cost.num_disparities
     if kind != SAD and nd < D:  # the padding past the range: the invalid cost (the census costs need no floor in it)
         for x in range(W):
             cb = x * D
             for k in range(nd, D):
                 crow[_U(cb + k)] = cinv
-    for x in range(W):  # disparities whose match is outside the right image: k outside [k_lo, k_hi]
+    # disparities whose match is outside the right image: k outside [k_lo, k_hi], only in the columns x < dmin + nd - 1
+    # (k_hi < nd - 1) and x > W - 1 + dmin (k_lo > 0)
+    left_end = min(W, max(0, dmin + nd - 1))
+    right_start = max(left_end, min(W, W + dmin))
+    for i in range(left_end + W - right_start):
+        x = i if i < left_end else right_start + i - left_end
         k_lo, k_hi = valid_range(x, W, dmin, nd)
         if k_lo > 0 or k_hi < nd - 1:
             cb = x * D
