@@ -464,11 +464,12 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     for i in range(left_end + W - right_start):
         x = i if i < left_end else right_start + i - left_end
         k_lo, k_hi = valid_range(x, W, dmin, nd)
-        if k_lo > 0 or k_hi < nd - 1:
-            cb = x * D
-            for k in range(nd):
-                if k < k_lo or k > k_hi:
-                    crow[_U(cb + k)] = cout
+        cb = x * D
+        # two runs of stores (a loop over the range testing each index cost ~6 ns a pixel of the image at KITTI size)
+        for k in range(min(k_lo, nd)):
+            crow[_U(cb + k)] = cout
+        for k in range(max(k_hi + 1, 0), nd):
+            crow[_U(cb + k)] = cout
 
 
 @njit(cache=True, nogil=True)
