@@ -5,8 +5,9 @@ shifted loads start two bytes off the vector's cache line, so each spans two lin
 them from a vector stored by the previous pixel, which the store cannot forward to a load it only partly covers.
 Here the previous vector is loaded once, from its aligned slot, as one ``<D x i16>`` value, and its neighbours at
 d - 1 and d + 1 are made from it in registers (one ``vpermi2w`` a 512-bit register, written out where 512-bit vectors
-are in use, else LLVM's shuffles: :func:`_shifted`); the sentinel either end of the range is a constant. The arithmetic is ``_lr``'s, in the same 16-bit operations (wrapping adds,
-signed minima, the vector's minimum unsigned), so every value is the same bit for bit (tested against the loops).
+are in use, else LLVM's shuffles: :func:`_shifted`); the sentinel either end of the range is a constant. The
+arithmetic is ``_lr``'s, in the same 16-bit operations (wrapping adds, signed minima, the vector's minimum unsigned),
+so every value is the same bit for bit (tested against the loops).
 
 The left and right paths' previous vectors and the right view's window (:func:`right_path_view`) are not stored at
 all: the kernel carries them from one pixel to the next as :class:`PathVector` values, LLVM vectors that stay in
