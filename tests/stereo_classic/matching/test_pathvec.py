@@ -9,7 +9,6 @@ import pytest
 from numba import njit
 
 from stereo_classic.matching._kernels import pathvec, vectors
-
 from stereo_classic.matching._kernels.aggregate import _SENTINEL, _lr
 from stereo_classic.matching._kernels.intrinsics import add16, umin16
 from stereo_classic.matching._kernels.pathvec import (load_vector, right_path_sum, right_path_view, store_vector,
@@ -74,7 +73,7 @@ def test_vector_paths_only_for_one_two_or_four_registers():
 @pytest.fixture(params=[True, False], ids=["vpermi2w", "llvm-shuffles"])
 def compiled(request, monkeypatch):
     """``_vectors`` and ``_right_sweep`` compiled afresh with each lowering of the lane moves (``pathvec._shifted``):
-    the written-out ``vpermi2w`` (where the CPU has AVX-512 BW) and LLVM's own shuffles (elsewhere)."""
+    the written-out ``vpermi2w`` (where 512-bit vectors are in use) and LLVM's own shuffles (elsewhere)."""
     if request.param and not pathvec._asm_permutes():
         pytest.skip(f"512-bit vectors not in use ({vectors.STATE}): the kernels compile with LLVM's shuffles (the "
                     "other parameter)")
