@@ -320,6 +320,15 @@ def _hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k):  # pragma: no cover - num
 
 
 @njit(cache=True, nogil=True, inline="always")
+def _census_at(lcode, y, x, W, nrr):  # pragma: no cover - numba
+    """What ``_hamming`` reads for left pixel (y, x): its code's quarters, and where each quarter's reversed right row
+    (``reverse_code_row``, rows of ``nrr``) has the pixel's first candidate."""
+    j0 = W - 1 - x
+    return (lcode[y, x, 0], lcode[y, x, 1], lcode[y, x, 2], lcode[y, x, 3], j0, j0 + nrr, j0 + 2 * nrr,
+            j0 + 3 * nrr)
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _moved_sum(hsum, colsum, bout, bin_, k):  # pragma: no cover - numba
     """The gradient window sum of index k moved one column on (column sums ``bout`` out, ``bin_`` in), stored."""
     hs = add16(sub16(hsum[k], colsum[_U(bout + k)]), colsum[_U(bin_ + k)])
@@ -340,14 +349,7 @@ def _census_columns(lcode, y, x0, W, rrev, hsum, colsum, crow, h, gmul, ghi, gra
         cb = x * D
         bin_ = (x + 2 * h) * D
         bout = (x - 1) * D
-        a0 = lcode[y, x, 0]
-        a1 = lcode[y, x, 1]
-        a2 = lcode[y, x, 2]
-        a3 = lcode[y, x, 3]
-        j0 = W - 1 - x
-        j1 = j0 + nrr
-        j2 = j1 + nrr
-        j3 = j2 + nrr
+        a0, a1, a2, a3, j0, j1, j2, j3 = _census_at(lcode, y, x, W, nrr)
         if grad and narrow:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT
             for k in range(D):
                 hs = _moved_sum(hsum, colsum, bout, bin_, k)
@@ -433,14 +435,7 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
             for k in range(D):
                 crow[_U(cb + k)] = max16(min16(lshr16(hsum[k], shift), cmax), floor[k])
             continue
-        a0 = lcode[y, x, 0]
-        a1 = lcode[y, x, 1]
-        a2 = lcode[y, x, 2]
-        a3 = lcode[y, x, 3]
-        j0 = W - 1 - x
-        j1 = j0 + nrr
-        j2 = j1 + nrr
-        j3 = j2 + nrr
+        a0, a1, a2, a3, j0, j1, j2, j3 = _census_at(lcode, y, x, W, nrr)
         if high:  # the window sum made above, through the high half of a 16-bit product
             for k in range(D):
                 crow[_U(cb + k)] = add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k), mulhi16(hsum[k], ghi))
