@@ -184,32 +184,50 @@ def census_bits(census_window: tuple[int, int]) -> int:
     return w * h - 1
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _census_byte(a, c, n0, n1, n2, n3, n4, n5, n6, n7, W):  # pragma: no cover - numba
+    """a[x] = one byte of the census code of the pixels ``c``: bit 7 - j set where ``nj[x] < c[x]``."""
+    one = np.uint8(1)
+    for x in range(W):
+        cx = c[x]
+        a[x] = ((((((np.uint8(n0[x] < cx) << one | np.uint8(n1[x] < cx)) << one | np.uint8(n2[x] < cx)) << one
+                  | np.uint8(n3[x] < cx)) << one | np.uint8(n4[x] < cx)) << one | np.uint8(n5[x] < cx)) << one
+                | np.uint8(n6[x] < cx)) << one | np.uint8(n7[x] < cx)
+
+
 @njit(cache=True, nogil=True)
 def census_quarters_rows(padded, hw, hh, y0, y1, out):  # pragma: no cover - numba
     """out[y, x, q] for the rows [y0, y1): the 16-bit quarter q of the census code (neighbour n of the window, in
     row order, is bit nbits - 1 - n of the 64-bit code) of the image ``padded`` by (hh, hw) replicated pixels."""
     W = out.shape[1]
-    nbits = (2 * hw + 1) * (2 * hh + 1) - 1
-    # the code's eight bytes, built in 8-bit lanes (twice as many per vector as 16-bit ones): neighbour n lands on
-    # bit nbits - 1 - n, i.e. byte (nbits - 1 - n) // 8, and the neighbours of a byte come highest bit first, so
-    # shifting the byte left by one per neighbour puts each on its bit (the top byte's first one included)
+    ww = 2 * hw + 1
+    nbits = ww * (2 * hh + 1) - 1
+    centre_index = hh * ww + hw  # in the window, row order
+    # the code's bytes, each made in one pass over the row from its (up to) eight neighbours, in 8-bit lanes: byte b
+    # holds the neighbours n with (nbits - 1 - n) // 8 == b, neighbour n on bit (nbits - 1 - n) % 8. A byte's
+    # missing neighbours (the top byte's, when nbits is no multiple of 8) are the centre itself (never darker: 0).
+    # One shift-in per neighbour over the whole row (62 passes reading and writing the byte rows) took 1.7x the time
+    # (KITTI image, census 9 x 7: 1.18 -> 0.68 ms; docs/matching.md, "Thirteenth round").
     acc = np.zeros((8, W), np.uint8)
     out64 = out.view(np.uint64)  # (H, W, 1): written a pixel at a time (quarter by quarter took twice the time)
-    one = np.uint8(1)
+    rows = np.empty(8, np.int64)  # the byte's neighbours in ``padded``, highest bit first
+    cols = np.empty(8, np.int64)
+    nbytes = (nbits + 7) // 8
     for y in range(y0, y1):
-        acc[:] = 0
         centre = padded[y + hh, hw:hw + W]
-        n = 0
-        for dy in range(-hh, hh + 1):
-            for dx in range(-hw, hw + 1):
-                if dy == 0 and dx == 0:
-                    continue
-                b = (nbits - 1 - n) // 8
-                n += 1
-                nb = padded[y + hh + dy, hw + dx:hw + dx + W]
-                a = acc[b]
-                for x in range(W):
-                    a[x] = (a[x] << one) | np.uint8(nb[x] < centre[x])
+        for b in range(nbytes):
+            for j in range(8):
+                rows[j] = y + hh
+                cols[j] = hw
+            for n in range(max(0, nbits - 8 - 8 * b), nbits - 8 * b):
+                i = n if n < centre_index else n + 1
+                j = 7 - (nbits - 1 - n) % 8
+                rows[j] = y + i // ww
+                cols[j] = i % ww
+            _census_byte(acc[b], centre, padded[rows[0], cols[0]:cols[0] + W], padded[rows[1], cols[1]:cols[1] + W],
+                         padded[rows[2], cols[2]:cols[2] + W], padded[rows[3], cols[3]:cols[3] + W],
+                         padded[rows[4], cols[4]:cols[4] + W], padded[rows[5], cols[5]:cols[5] + W],
+                         padded[rows[6], cols[6]:cols[6] + W], padded[rows[7], cols[7]:cols[7] + W], W)
         o = out64[y]  # a pixel's four quarters as one little-endian 64-bit code: byte b at bits 8b .. 8b + 7
         for x in range(W):
             v = np.uint64(0)
