@@ -98,12 +98,16 @@ def select_row(y, settings, dmin, ndisp, sums, row_min, k_index, right_sums, rig
             best[x] = -1
             counts[2] += 1
             continue
-        if uniq > 0.0:
+        if uniq > 0.0:  # the lowest sum of the range but at bk - 1 .. bk + 1: one pass over the D sums
             m2 = big
-            for k in range(k_lo, bk - 1):
-                m2 = min16(m2, srow[_U(db + k)])
-            for k in range(bk + 2, k_hi + 1):
-                m2 = min16(m2, srow[_U(db + k)])
+            lo = np.int16(k_lo)
+            hi = np.int16(k_hi)
+            b0 = np.int16(bk - 1)
+            b1 = np.int16(bk + 1)
+            for k in range(D):
+                kk = kidx[k]
+                skip = (kk < lo) | (kk > hi) | ((kk >= b0) & (kk <= b1))
+                m2 = min16(m2, pick16(skip, big, srow[_U(db + k)]))
             if m2 < big and np.float64(m2) * (1.0 - uniq) < np.float64(ns):
                 disp[y, x] = nan
                 counts[0] += 1
