@@ -18,7 +18,8 @@ from stereo_classic.matching._kernels.tags import tag_disparities
 
 # ``_nrt=False``: kernels that run per row and allocate nothing, compiled without numba's reference counts on their
 # array arguments (atomic updates, on every call, of counters both workers share; docs/matching.md, seventh round).
-__all__ = ["sad_colsum_advance", "sad_colsum_init", "sad_colsum_row", "sad_hsum_init", "sad_reverse_row"]
+__all__ = ["moved_column", "sad_colsum_advance", "sad_colsum_columns", "sad_colsum_init", "sad_colsum_row",
+           "sad_hsum_init", "sad_reverse_pair", "sad_reverse_row"]
 
 _U = np.uint64  # unsigned indices: numba adds no negative-index wraparound, LLVM emits plain vector loads
 
@@ -77,20 +78,19 @@ def sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D, i
         sad_colsum_row(colsum, True, lsob, lint, yc, srev, irev, h, D, intensity)
 
 
-@njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, tag,
-                       intensity):  # pragma: no cover
-    """Move the column window from row y - step to row y: add row y + step*h and drop row y - step*(h+1), in
-    one sweep over the column sums (``srev`` / ``irev`` hold two reversed rows: the one in, then the one out;
-    ``tag``: ``disparity_tag(D)``)."""
-    D = tag_disparities(tag)
-    H = lsob.shape[0]
-    W = lsob.shape[1]
+@njit(_nrt=False, cache=True, nogil=True)
+def sad_reverse_pair(y, step, rsob, rint, srev, irev, dmin, h, intensity):  # pragma: no cover - numba
+    """The two image rows that move the column window from row y - step to row y (``yin`` = y + step * h enters,
+    ``yout`` = y - step * (h + 1) leaves, both clamped), and, unless they are the same row, their right rows
+    reversed: ``srev`` (and ``irev`` when ``intensity``) holds the one in, then the one out, each of length
+    ``L = W + 2h + D - 1`` (D = ``len(srev) // 2 - W - 2h + 1``). Returns (yin, yout, L)."""
+    H = rsob.shape[0]
+    W = rsob.shape[1]
     yin = _clamp(y + step * h, H)
     yout = _clamp(y - step * (h + 1), H)
+    L = srev.shape[0] // 2
     if yin == yout:
-        return
-    L = W + 2 * h + D - 1
+        return yin, yout, L
     K = W - 1 + h - dmin
     for j in range(L):
         c = _clamp(K - j, W)
@@ -99,8 +99,27 @@ def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin
         if intensity:
             irev[j] = rint[yin, c]
             irev[L + j] = rint[yout, c]
+    return yin, yout, L
+
+
+@njit(_nrt=False, cache=True, nogil=True, inline="always")
+def moved_column(colsum, srev, a, b, j0, j1, base, k):  # pragma: no cover - numba
+    """The gradient column sum ``colsum[base + k]`` moved on by one row (|a - srev[j0 + k]| in, |b - srev[j1 + k]|
+    out), stored and returned."""
+    cs = add16(colsum[_U(base + k)], sub16(absdiff16(a, srev[_U(j0 + k)]), absdiff16(b, srev[_U(j1 + k)])))
+    colsum[_U(base + k)] = cs
+    return cs
+
+
+@njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+def sad_colsum_columns(colsum, xp0, xp1, yin, yout, lsob, lint, srev, irev, L, h, tag,
+                       intensity):  # pragma: no cover
+    """Move the column sums of the padded columns xp + h, xp in [xp0, xp1), from row y - step to row y
+    (``sad_reverse_pair``'s rows; ``tag``: ``disparity_tag(D)``)."""
+    D = tag_disparities(tag)
+    W = lsob.shape[1]
     two = np.int16(2)
-    for xp in range(-h, W + h):
+    for xp in range(xp0, xp1):
         c = _clamp(xp, W)
         a = lsob[yin, c]
         b = lsob[yout, c]
@@ -116,8 +135,18 @@ def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin
                 colsum[_U(base + k)] = add16(colsum[_U(base + k)], sub16(add, drop))
         else:
             for k in range(D):
-                colsum[_U(base + k)] = add16(colsum[_U(base + k)],
-                                             sub16(absdiff16(a, srev[_U(j0 + k)]), absdiff16(b, srev[_U(j1 + k)])))
+                moved_column(colsum, srev, a, b, j0, j1, base, k)
+
+
+@njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
+def sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, tag,
+                       intensity):  # pragma: no cover
+    """Move the column window from row y - step to row y: add row y + step*h and drop row y - step*(h+1), in
+    one sweep over the column sums (``srev`` / ``irev`` hold two reversed rows: the one in, then the one out;
+    ``tag``: ``disparity_tag(D)``)."""
+    yin, yout, L = sad_reverse_pair(y, step, rsob, rint, srev, irev, dmin, h, intensity)
+    if yin != yout:
+        sad_colsum_columns(colsum, -h, lsob.shape[1] + h, yin, yout, lsob, lint, srev, irev, L, h, tag, intensity)
 
 
 @njit(_nrt=False, cache=True, nogil=True)

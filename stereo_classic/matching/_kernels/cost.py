@@ -23,7 +23,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from stereo_classic.matching._kernels.colsums import sad_colsum_advance, sad_colsum_init, sad_hsum_init
+from stereo_classic.matching._kernels.colsums import (moved_column, sad_colsum_advance, sad_colsum_columns,
+                                                      sad_colsum_init, sad_hsum_init, sad_reverse_pair)
 from stereo_classic.matching._kernels.features import (FEATURE_QUANT, FEATURE_SCALE, FEATURES,
                                                        feature_row_cost, reverse_code_row)
 from stereo_classic.matching._kernels.intrinsics import (
@@ -355,11 +356,16 @@ def _moved_sum(hsum, colsum, bout, bin_, k):  # pragma: no cover - numba
 
 
 @njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
-def _census_columns(lcode, y, x0, W, rrev, hsum, colsum, crow, h, gmul, ghi, grad, narrow, tag):  # pragma: no cover
+def _census_columns(lcode, y, x0, W, rrev, hsum, colsum, crow, h, gmul, ghi, grad, narrow, tag,
+                    move, lsob, srev, yin, yout, L):  # pragma: no cover - numba
     """``row_cost``'s census costs of the columns x0 .. W - 1 (with ``grad``: plus the gradient window mean, the window
     sum moved on from column x - 1: x0 >= 1), in a function of its own: inside ``row_cost``, among its other costs'
     branches and values, the same loop took about 4 ns a pixel more (OAK-D VGA, 64 disparities: ``row_cost`` over
-    the image 8.1 -> 6.9 ms; docs/matching.md, "Twelfth round")."""
+    the image 8.1 -> 6.9 ms; docs/matching.md, "Twelfth round").
+
+    ``move``: the column sums entering the window (column x + h) are moved on from the row before here, where they
+    are first read (``sad_reverse_pair``'s rows ``yin`` / ``yout`` and ``srev``, ``L``), not in a pass of their own
+    over the W x D sums (``sad_colsum_advance``); the columns up to 2h are moved on already."""
     D = tag_disparities(tag)
     nrr = W + D - 1
     gshift = np.int16(GRAD_SHIFT)
@@ -368,7 +374,25 @@ def _census_columns(lcode, y, x0, W, rrev, hsum, colsum, crow, h, gmul, ghi, gra
         bin_ = (x + 2 * h) * D
         bout = (x - 1) * D
         a0, a1, a2, a3, j0, j1, j2, j3 = _census_at(lcode, y, x, W, nrr)
-        if grad and narrow:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT
+        if move:  # the column leaving the window first (a loop of its own: it reads the sums the other one writes)
+            c = min(x + h, W - 1)
+            la = lsob[yin, c]
+            lb = lsob[yout, c]
+            s0 = W - 1 - x
+            for k in range(D):
+                hsum[k] = sub16(hsum[k], colsum[_U(bout + k)])
+            if narrow:
+                for k in range(D):
+                    hs = add16(hsum[k], moved_column(colsum, srev, la, lb, s0, s0 + L, bin_, k))
+                    hsum[k] = hs
+                    crow[_U(cb + k)] = add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k),
+                                             mullo16(hs, gmul, gshift))
+            else:
+                for k in range(D):
+                    hs = add16(hsum[k], moved_column(colsum, srev, la, lb, s0, s0 + L, bin_, k))
+                    hsum[k] = hs
+                    crow[_U(cb + k)] = add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k), mulhi16(hs, ghi))
+        elif grad and narrow:  # census + the window mean of the gradient differences: (sum * grad_mul) >> GRAD_SHIFT
             for k in range(D):
                 hs = _moved_sum(hsum, colsum, bout, bin_, k)
                 crow[_U(cb + k)] = add16(_hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k), mullo16(hs, gmul, gshift))
@@ -415,31 +439,38 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
     cinv = np.int16(cost.invalid_cost)
     cout = np.int16(cost.outside_cost) if cost.outside_cost >= 0 else cinv
     grad = kind != CENSUS  # SAD, or the gradient term of census+grad (no intensity term)
+    # (sum * grad_mul) >> GRAD_SHIFT == (sum * (grad_mul << (16 - GRAD_SHIFT))) >> 16 exactly while the scaled
+    # multiplier fits 16 bits (every block size but 1): the high half of a 16-bit product (one vpmulhuw for 32
+    # lanes, not two widened 32-bit multiplies and a narrowing), measured about a third of the gradient term.
+    gmul_hi = cost.grad_mul << (16 - GRAD_SHIFT)
+    high = gmul_hi < 65536
+    # Past the first column: the product itself in 16 bits (``mullo16``, two instructions for 32 lanes where numba's
+    # LLVM turns ``mulhi16`` into eight) while the largest window sum (2 * SOBEL_CAP a pixel) times grad_mul stays
+    # below 2 ** 16: every block size but 15, 17 and 19, which keep ``mulhi16``. docs/matching.md, fifth round.
+    narrow = 2 * SOBEL_CAP * (2 * h + 1) * (2 * h + 1) * cost.grad_mul < 65536
+    # the census cost, and census + grad past the first column, in loops of their own (_census_columns)
+    fast = kind == CENSUS or (kind == CENSUS_GRAD and (narrow or high))
+    yin = yout = L = 0
+    move = False  # census + grad: _census_columns moves the column sums on where it first reads them
     if grad:
         intensity = kind == SAD
         if first:
             sad_colsum_init(colsum, y, lsob, lint, rsob, rint, srev, irev, dmin, h, D, intensity)
+        elif fast:  # the columns of the first column's window here, the others in _census_columns
+            yin, yout, L = sad_reverse_pair(y, step, rsob, rint, srev, irev, dmin, h, False)
+            move = yin != yout
+            if move:
+                sad_colsum_columns(colsum, -h, h + 1, yin, yout, lsob, lint, srev, irev, L, h, bufs.tag, False)
         else:
             sad_colsum_advance(colsum, y, step, lsob, lint, rsob, rint, srev, irev, dmin, h, bufs.tag, intensity)
     shift = np.int16(cost.shift)
     cmax = np.int16(cost.cmax)
     gmul = np.int16(cost.grad_mul)
     gshift = np.int16(GRAD_SHIFT)
-    # (sum * grad_mul) >> GRAD_SHIFT == (sum * (grad_mul << (16 - GRAD_SHIFT))) >> 16 exactly while the scaled
-    # multiplier fits 16 bits (every block size but 1): the high half of a 16-bit product (one vpmulhuw for 32
-    # lanes, not two widened 32-bit multiplies and a narrowing), measured about a third of the gradient term.
-    gmul_hi = cost.grad_mul << (16 - GRAD_SHIFT)
-    high = gmul_hi < 65536
     ghi = np.int16((gmul_hi - 65536 if gmul_hi >= 32768 else gmul_hi) if high else 0)  # its 16 bits, as int16
-    # Past the first column: the product itself in 16 bits (``mullo16``, two instructions for 32 lanes where numba's
-    # LLVM turns ``mulhi16`` into eight) while the largest window sum (2 * SOBEL_CAP a pixel) times grad_mul stays
-    # below 2 ** 16: every block size but 15, 17 and 19, which keep ``mulhi16``. docs/matching.md, fifth round.
-    narrow = 2 * SOBEL_CAP * (2 * h + 1) * (2 * h + 1) * cost.grad_mul < 65536
     nrr = W + D - 1
     if kind != SAD:  # census: four 16-bit quarters per code (vpopcntw), all in int16 lanes
         reverse_code_row(rcode, y, dmin, nrr, rrev)
-    # the census cost, and census + grad past the first column, in loops of their own (_census_columns)
-    fast = kind == CENSUS or (kind == CENSUS_GRAD and (narrow or high))
     for x in range(W if not fast else (0 if kind == CENSUS else 1)):  # SAD, and census + grad's first column
         cb = x * D
         if x == 0:  # the window sum of the pixel: hsum over the column sums x - h .. x + h
@@ -463,7 +494,7 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
                                          mulshr16(hsum[k], gmul, gshift))
     if fast:
         _census_columns(lcode, y, 0 if kind == CENSUS else 1, W, rrev, hsum, colsum, crow, h, gmul, ghi, grad, narrow,
-                        bufs.tag)
+                        bufs.tag, move, lsob, srev, yin, yout, L)
     nd = cost.num_disparities
     if kind != SAD and nd < D:  # the padding past the range: the invalid cost (the census costs need no floor in it)
         for x in range(W):
