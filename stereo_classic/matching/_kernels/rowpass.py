@@ -206,7 +206,8 @@ def three_path_stripe(images, cost, settings, plan, cbufs, bufs, out):  # pragma
     cbufs : cost.RowCostBuffers
         This worker's cost state.
     bufs : RowPassBuffers
-        This worker's row buffers; the path vectors must hold zeros (the path start) on entry.
+        This worker's row buffers; the path vectors the first row reads (slots ``n_rows + 1`` ..
+        ``n_rows + W``) must hold zeros (the path start) on entry.
     out : aggregate.PassOutputs
         Disparity maps, and the flat sum volume when ``plan.keep_sums``.
     """
