@@ -301,7 +301,7 @@ def _prepare_cost(left, right, cost, census_window, threads=1, workspace=None, w
     for side, img in (("left", left), ("right", right)):
         views.append((
             padded(side, img, h // 2, w // 2) if census else None,
-            scratch(side + "_code", (H, W, 4), np.uint16) if census else _placeholder(np.uint16, 3),
+            scratch(side + "_code", (H, 4, W), np.uint16) if census else _placeholder(np.uint16, 3),
             padded(side, img, 1, 1) if sobel or side == "left" else None,  # the left one for the penalty factors too
             scratch(side + "_sobel", (H, W), np.int16) if sobel else _placeholder(np.int16, 2),
             # no intensity term but for SAD: the kernels read no intensity image then

@@ -105,9 +105,9 @@ class CostImages(NamedTuple):
     ----------
     left : (H, W) uint8
         The left grey image (adaptive P2 reads it; its shape is the image size).
-    left_code, right_code : (H, W, 4) uint16
-        Census codes as four 16-bit quarters (quarter 0 = bits 0-15, ``census_quarters``); (1, 1, 1)
-        placeholders for SAD.
+    left_code, right_code : (H, 4, W) uint16
+        Census codes as four 16-bit quarters, each a plane of the row (quarter 0 = bits 0-15,
+        ``census_quarters``); (1, 1, 1) placeholders for SAD.
     left_sobel, left_intensity, right_sobel, right_intensity : (H, W) int16
         The SAD channels of ``sad_prefilter``; (1, 1) placeholders for census (and the intensities for
         census+grad, which has no intensity term).
@@ -198,9 +198,9 @@ def _census_byte(a, c, n0, n1, n2, n3, n4, n5, n6, n7, W):  # pragma: no cover -
 
 @njit(cache=True, nogil=True)
 def census_quarters_rows(padded, hw, hh, y0, y1, out):  # pragma: no cover - numba
-    """out[y, x, q] for the rows [y0, y1): the 16-bit quarter q of the census code (neighbour n of the window, in
+    """out[y, q, x] for the rows [y0, y1): the 16-bit quarter q of the census code (neighbour n of the window, in
     row order, is bit nbits - 1 - n of the 64-bit code) of the image ``padded`` by (hh, hw) replicated pixels."""
-    W = out.shape[1]
+    W = out.shape[2]
     ww = 2 * hw + 1
     nbits = ww * (2 * hh + 1) - 1
     centre_index = hh * ww + hw  # in the window, row order
@@ -210,7 +210,6 @@ def census_quarters_rows(padded, hw, hh, y0, y1, out):  # pragma: no cover - num
     # One shift-in per neighbour over the whole row (62 passes reading and writing the byte rows) took 1.7x the time
     # (KITTI image, census 9 x 7: 1.18 -> 0.68 ms; docs/matching.md, "Thirteenth round").
     acc = np.zeros((8, W), np.uint8)
-    out64 = out.view(np.uint64)  # (H, W, 1): written a pixel at a time (quarter by quarter took twice the time)
     rows = np.empty(8, np.int64)  # the byte's neighbours in ``padded``, highest bit first
     cols = np.empty(8, np.int64)
     nbytes = (nbits + 7) // 8
@@ -229,21 +228,22 @@ def census_quarters_rows(padded, hw, hh, y0, y1, out):  # pragma: no cover - num
                          padded[rows[2], cols[2]:cols[2] + W], padded[rows[3], cols[3]:cols[3] + W],
                          padded[rows[4], cols[4]:cols[4] + W], padded[rows[5], cols[5]:cols[5] + W],
                          padded[rows[6], cols[6]:cols[6] + W], padded[rows[7], cols[7]:cols[7] + W], W)
-        o = out64[y]  # a pixel's four quarters as one little-endian 64-bit code: byte b at bits 8b .. 8b + 7
-        for x in range(W):
-            v = np.uint64(0)
-            for b in range(8):
-                v |= np.uint64(acc[b, x]) << np.uint64(8 * b)
-            o[x, 0] = v
+        for q in range(4):  # quarter q: bytes 2q (low) and 2q + 1 of the code, 32 pixels a vector
+            lo = acc[2 * q]
+            hi = acc[2 * q + 1]
+            o = out[y, q]
+            for x in range(W):
+                o[x] = np.uint16(lo[x]) | (np.uint16(hi[x]) << np.uint16(8))
 
 
 def census_quarters(image: np.ndarray, census_window: tuple[int, int]) -> np.ndarray:
-    """Census codes as four 16-bit quarters: ``(H, W, 4) uint16``, the 64-bit code (bit set where the neighbour is
-    darker than the centre, borders replicated; ``reference.census_reference``) viewed as little-endian quarters,
-    quarter 0 = bits 0-15, computed in 16-bit lanes (four times as many per vector as 64-bit codes)."""
+    """Census codes as four 16-bit quarters: ``(H, 4, W) uint16``, ``[y, q]`` the quarter q (bits 16q .. 16q + 15)
+    of row y's 64-bit codes (bit set where the neighbour is darker than the centre, borders replicated;
+    ``reference.census_reference``), each quarter a plane of the row: the costs read them in 16-bit lanes (four
+    times as many per vector as 64-bit codes), and a right row reversed is four reversed runs."""
     w, h = census_window
     padded = np.pad(image, ((h // 2, h // 2), (w // 2, w // 2)), mode="edge")
-    out = np.empty(image.shape + (4,), np.uint16)
+    out = np.empty((image.shape[0], 4, image.shape[1]), np.uint16)
     census_quarters_rows(padded, w // 2, h // 2, 0, image.shape[0], out)
     return out
 
@@ -343,7 +343,7 @@ def _census_at(lcode, y, x, W, nrr):  # pragma: no cover - numba
     """What ``_hamming`` reads for left pixel (y, x): its code's quarters, and where each quarter's reversed right row
     (``reverse_code_row``, rows of ``nrr``) has the pixel's first candidate."""
     j0 = W - 1 - x
-    return (lcode[y, x, 0], lcode[y, x, 1], lcode[y, x, 2], lcode[y, x, 3], j0, j0 + nrr, j0 + 2 * nrr,
+    return (lcode[y, 0, x], lcode[y, 1, x], lcode[y, 2, x], lcode[y, 3, x], j0, j0 + nrr, j0 + 2 * nrr,
             j0 + 3 * nrr)
 
 
@@ -409,7 +409,7 @@ def _census_columns(lcode, y, x0, W, rrev, hsum, colsum, crow, h, gmul, ghi, gra
 def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - numba
     """The matching cost of every pixel of row ``y``: ``crow[x * D + k]`` (int16), disparity ``min_disparity + k``.
 
-    ``images``: a ``CostImages`` with census codes as (H, W, 4) uint16 quarters; ``cost``: a ``CostSettings``;
+    ``images``: a ``CostImages`` with census codes as (H, 4, W) uint16 quarters; ``cost``: a ``CostSettings``;
     ``bufs``: a ``RowCostBuffers``. The SAD / gradient column sums are built from scratch when ``first``, else
     moved on from row ``y - step`` (``step`` +1 or -1: rows must then come in that order). Disparities whose
     match falls outside the right image get ``outside_cost`` (``invalid_cost`` when it is -1), the padding indices
@@ -520,7 +520,7 @@ def row_cost(images, cost, y, first, step, bufs, crow):  # pragma: no cover - nu
 def cost_volume_kernel(images, cost, bufs, out):  # pragma: no cover - numba
     """Fill ``out`` (H, W, D) int16 with the cost the passes use, row by row with ``row_cost``.
 
-    ``images``: a ``CostImages`` (census codes as (H, W, 4) uint16 quarters); ``cost``: a ``CostSettings``;
+    ``images``: a ``CostImages`` (census codes as (H, 4, W) uint16 quarters); ``cost``: a ``CostSettings``;
     ``bufs``: a ``RowCostBuffers``.
     """
     H, W, D = out.shape

@@ -60,11 +60,21 @@ def reverse_code_row(rcode, y, dmin, nrr, rrev):  # pragma: no cover - numba
     """``rrev[q * nrr + j]`` = quarter q of the right census code of row ``y`` at column ``clamp(W - 1 - dmin - j)``,
     j < ``nrr`` (W + D - 1): the right row reversed, so that a left pixel's D candidates are consecutive (the census
     costs' ``row_cost`` and a learned cost's census term)."""
-    W = rcode.shape[1]
-    for j in range(nrr):
-        c = _clamp(W - 1 - dmin - j, W)
-        for q in range(4):
-            rrev[q * nrr + j] = rcode[y, c, q]
+    W = rcode.shape[2]
+    K = W - 1 - dmin  # rrev[q * nrr + j] = rcode[y, q, clamp(K - j)]: the clamped ends apart, the middle reversed runs
+    j0 = min(max(K - (W - 1), 0), nrr)  # j < j0: column W - 1
+    j1 = min(max(K + 1, j0), nrr)  # j0 <= j < j1: column K - j; j >= j1: column 0
+    for q in range(4):
+        r = rcode[y, q]
+        b = q * nrr
+        last = r[W - 1]
+        for j in range(j0):
+            rrev[_U(b + j)] = last
+        for j in range(j0, j1):
+            rrev[_U(b + j)] = r[_U(K - j)]
+        first = r[0]
+        for j in range(j1, nrr):
+            rrev[_U(b + j)] = first
 
 
 #: The census term of a learned cost is ``(h * census_mul + 2**(CENSUS_MUL_SHIFT - 1)) >> CENSUS_MUL_SHIFT`` for a
@@ -100,7 +110,7 @@ def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow, lcode, rcod
     With ``cost.feature_census_mul`` > 0 (``SGMParams.feature_census``) the cost is a mix of the learned cost and the
     census cost: ``feature_base`` and ``feature_mul`` then hold the learned cost's share, and the census term
     ``(h * feature_census_mul + 128) >> 8`` of the Hamming distance ``h`` of the census codes ``lcode`` / ``rcode``
-    ((H, W, 4) uint16 quarters, as ``row_cost`` reads them; ``rrev``: the right row's quarters reversed, ``ham``: (D,)
+    ((H, 4, W) uint16 quarters, as ``row_cost`` reads them; ``rrev``: the right row's quarters reversed, ``ham``: (D,)
     int16 scratch) is added, at most ``cmax`` in all.
     """
     C = lfeat.shape[1]
@@ -150,10 +160,10 @@ def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow, lcode, rcod
                     facc[k] += a * frev[_U(b + k)]
         cb = x * D
         if census:
-            a0 = lcode[y, x, 0]
-            a1 = lcode[y, x, 1]
-            a2 = lcode[y, x, 2]
-            a3 = lcode[y, x, 3]
+            a0 = lcode[y, 0, x]
+            a1 = lcode[y, 1, x]
+            a2 = lcode[y, 2, x]
+            a3 = lcode[y, 3, x]
             for k in range(D):
                 ham[k] = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j0 + nrr + k)])),
                                add16(popxor16(a2, rrev[_U(j0 + 2 * nrr + k)]),

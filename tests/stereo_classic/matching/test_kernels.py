@@ -414,9 +414,9 @@ def test_census_quarters_are_the_census_codes_bit_for_bit(census_window):
 
     img = np.random.default_rng(7).integers(0, 256, (13, 37), dtype=np.uint8)
     codes = ref.census_reference(img, census_window)
-    quarters = census_quarters(img, census_window)
-    assert quarters.dtype == np.uint16 and quarters.shape == img.shape + (4,)
-    np.testing.assert_array_equal(quarters, codes.view(np.uint16).reshape(13, 37, 4))
+    quarters = census_quarters(img, census_window)  # (H, 4, W): quarter q of row y's codes is a plane
+    assert quarters.dtype == np.uint16 and quarters.shape == (13, 4, 37)
+    np.testing.assert_array_equal(quarters, codes.view(np.uint16).reshape(13, 37, 4).transpose(0, 2, 1))
 
 
 @pytest.mark.parametrize("cost", ["census", "census+grad", "sad"])
