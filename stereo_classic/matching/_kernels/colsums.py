@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from stereo_classic.matching._kernels.features import _clamp
+from stereo_classic.matching._kernels.features import _clamp, reverse_run
 from stereo_classic.matching._kernels.intrinsics import absdiff16, add16, shr16, sub16
 from stereo_classic.matching._kernels.pipeline import NoAliasCompiler
 from stereo_classic.matching._kernels.tags import tag_disparities
@@ -27,13 +27,10 @@ _U = np.uint64  # unsigned indices: numba adds no negative-index wraparound, LLV
 @njit(_nrt=False, cache=True, nogil=True)
 def sad_reverse_row(rsob, rint, y, srev, irev, dmin, h, intensity):  # pragma: no cover - numba
     """srev[j] = rsob[y, clamp(W - 1 + h - dmin - j)], same for the intensity row (when ``intensity``)."""
-    W = rsob.shape[1]
-    K = W - 1 + h - dmin
-    for j in range(srev.shape[0]):
-        c = _clamp(K - j, W)
-        srev[j] = rsob[y, c]
-        if intensity:
-            irev[j] = rint[y, c]
+    K = rsob.shape[1] - 1 + h - dmin
+    reverse_run(rsob[y], K, srev, 0, srev.shape[0])
+    if intensity:
+        reverse_run(rint[y], K, irev, 0, irev.shape[0])
 
 
 @njit(_nrt=False, cache=True, nogil=True, pipeline_class=NoAliasCompiler)
@@ -92,13 +89,11 @@ def sad_reverse_pair(y, step, rsob, rint, srev, irev, dmin, h, intensity):  # pr
     if yin == yout:
         return yin, yout, L
     K = W - 1 + h - dmin
-    for j in range(L):
-        c = _clamp(K - j, W)
-        srev[j] = rsob[yin, c]
-        srev[L + j] = rsob[yout, c]
-        if intensity:
-            irev[j] = rint[yin, c]
-            irev[L + j] = rint[yout, c]
+    reverse_run(rsob[yin], K, srev, 0, L)
+    reverse_run(rsob[yout], K, srev, L, L)
+    if intensity:
+        reverse_run(rint[yin], K, irev, 0, L)
+        reverse_run(rint[yout], K, irev, L, L)
     return yin, yout, L
 
 
