@@ -265,6 +265,26 @@ def test_weak_texture_rows_in_any_stripes_are_the_whole_image(h, w):
     assert texture_table(1.0).tolist() == [16]  # gain 1: 16 everywhere
 
 
+@pytest.mark.parametrize("gain", [1.5, 2.5, 4.0, 8.0])  # 8: MAX_TEXTURE_GAIN
+def test_scale_of_sum_is_the_table_for_every_window_sum(gain):
+    """``weak_texture_rows`` computes the factor of a window sum in float32 (``scale_of_sum``) where it looked it up:
+    the table's entry for every sum a window can have (0 .. 25 * 1020; past the table, 16)."""
+    from numba import njit
+
+    from stereo_classic.matching._kernels.texture import scale_of_sum, texture_table
+
+    @njit
+    def every(top, out):
+        for s in range(out.shape[0]):
+            out[s] = scale_of_sum(np.int16(s), top)
+
+    table = texture_table(gain)
+    got = np.zeros(25 * 1020 + 1, np.uint8)
+    every(np.float32(table[0]), got)
+    want = table[np.minimum(np.arange(got.size), table.size - 1)]
+    np.testing.assert_array_equal(got, want)
+
+
 def test_first_equal_is_the_first_index_of_a_value():
     """``select.first_equal`` (whole blocks of 32 lanes by a vector compare read as a mask, then one by one) is the
     first index of the value, in rows of any length, and _INT16_MAX where the value is absent."""
