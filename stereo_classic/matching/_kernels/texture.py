@@ -104,9 +104,9 @@ def weak_texture_rows(padded, y0, y1, table, out):  # pragma: no cover - numba
 def weak_texture_scale(left: np.ndarray, gain: float, out: np.ndarray | None = None, *, scratch=None) -> np.ndarray:
     """(H, W) uint8 penalty factors in sixteenths: ``clip(16 * TEXTURE_REFERENCE / t, 16, max_penalty_scale(gain))``
     rounded half up, ``t`` the TEXTURE_WINDOW x TEXTURE_WINDOW window mean of ``|Sobel_x(left)|`` (borders
-    replicated), in integer arithmetic through a table (the same numbers on every machine and thread count); all 16
-    when ``gain`` <= 1. ``scratch(name, shape, dtype)`` gives the temporaries (a workspace's: no fresh arrays per
-    call), default new arrays."""
+    replicated), exact (the table's integer formula, ``scale_of_sum``: the same numbers on every machine and thread
+    count); all 16 when ``gain`` <= 1. ``scratch(name, shape, dtype)`` gives the temporaries (a workspace's: no fresh
+    arrays per call), default new arrays."""
     if out is None:
         out = np.empty(left.shape, np.uint8)
     table = texture_table(gain)
