@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
-from numba.core.compiler import CompilerBase, DefaultPassBuilder
 
 from stereo_classic.matching._kernels.intrinsics import add16, max16, min16, popxor16
+from stereo_classic.matching._kernels.pipeline import NoAliasCompiler
 
 __all__ = ["FEATURES", "FEATURE_SCALE", "FEATURE_QUANT", "FEATURE_OUTSIDE", "FEATURE_SIMILARITIES", "CENSUS_MUL_SHIFT",
            "census_term_mul", "check_features", "feature_cost_terms", "feature_row_cost", "quantise_rows",
@@ -44,15 +44,6 @@ FEATURE_OUTSIDE = FEATURE_SCALE // 2
 @njit(cache=True, nogil=True, inline="always")
 def _clamp(i, n):  # pragma: no cover - numba
     return 0 if i < 0 else (n - 1 if i >= n else i)
-
-
-class _NoAlias(CompilerBase):
-    """``cost.NoAliasCompiler`` (the array arguments do not alias: no runtime overlap checks), repeated here because
-    cost.py imports this module."""
-
-    def define_pipelines(self):
-        self.state.flags.noalias = True
-        return [DefaultPassBuilder.define_nopython_pipeline(self.state)]
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -99,7 +90,7 @@ def census_term_mul(share: float, bits: int) -> int:
     return int(round((1 << CENSUS_MUL_SHIFT) * float(share) * 2 * FEATURE_SCALE / int(bits))) if share > 0 else 0
 
 
-@njit(cache=True, nogil=True, pipeline_class=_NoAlias)
+@njit(cache=True, nogil=True, pipeline_class=NoAliasCompiler)
 def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow, lcode, rcode, rrev, ham):  # pragma: no cover
     """``row_cost`` of ``FEATURES``: ``crow[x * D + k]`` from the int8 feature vectors of row ``y``.
 
