@@ -3,9 +3,11 @@
 ``aggregate._lr`` reads the previous vector three times from memory: at d and one disparity either side. The two
 shifted loads start two bytes off the vector's cache line, so each spans two lines, and the horizontal paths read
 them from a vector stored by the previous pixel, which the store cannot forward to a load it only partly covers.
-Here the previous vector is loaded once, from its aligned slot, as one ``<D x i16>`` value, and its neighbours at
-d - 1 and d + 1 are made from it in registers (one ``vpermi2w`` a 512-bit register, written out where 512-bit vectors
-are in use, else LLVM's shuffles: :func:`_shifted`); the sentinel either end of the range is a constant. The
+Here the horizontal paths' previous vector is one ``<D x i16>`` value, and its neighbours at d - 1 and d + 1 are
+made from it in registers (one ``vpermi2w`` a 512-bit register, written out where 512-bit vectors are in use, else
+LLVM's shuffles: :func:`_shifted`); the sentinel either end of the range is a constant. The top path's previous
+vector was stored a row before, so its neighbours are loaded as ``_lr`` reads them (:func:`_top_update`: no store
+in flight, and the loads spare the shuffle pipe). The
 arithmetic is ``_lr``'s, in the same 16-bit operations (wrapping adds, signed minima, the vector's minimum unsigned),
 so every value is the same bit for bit (tested against the loops).
 
@@ -177,14 +179,28 @@ def _shifted(builder, vector, fill, up, D):
                              for i in range(len(regs))])
 
 
-def _update(builder, prev, cost, m, q, p1, D):
+def _update(builder, prev, cost, m, q, p1, D, below=None, above=None):
     """``_lr`` for every disparity: ``cost - m + min(prev, min(prev[d - 1], prev[d + 1]) + p1, q)``, the sentinel
-    beyond either end of the range."""
-    below = _shifted(builder, prev, _SENTINEL, False, D)
-    above = _shifted(builder, prev, _SENTINEL, True, D)
+    beyond either end of the range (``below`` / ``above``: prev[d - 1] / prev[d + 1] where loaded, else made from
+    ``prev`` in registers)."""
+    if below is None:
+        below = _shifted(builder, prev, _SENTINEL, False, D)
+        above = _shifted(builder, prev, _SENTINEL, True, D)
     step = builder.add(_smin(builder, below, above), _splat(builder, p1, D))
     best = _smin(builder, _smin(builder, prev, step), _splat(builder, q, D))
     return builder.add(builder.sub(cost, _splat(builder, m, D)), best)
+
+
+def _top_update(context, builder, arrty, P, rb, cost, m, q, p1, D):
+    """The top path's update from its previous vector's slot at ``rb``: the vector and its neighbours at d - 1 and
+    d + 1 are three loads (the slot's sentinels either side), not moves in registers. The slot was written a row
+    before, so the two loads that start off its cache line wait on no store (the horizontal paths' previous vectors,
+    stored one pixel before, would: they stay in registers), and they run on the load pipes where the moves took the
+    one shuffle pipe, which bounds the sweep (docs/matching.md, "Fourteenth round")."""
+    prev = _load(context, builder, arrty, P, _index(builder, rb), D)
+    below = _load(context, builder, arrty, P, rb, D)
+    above = _load(context, builder, arrty, P, _index(builder, _index(builder, rb)), D)
+    return _update(builder, prev, cost, m, q, p1, D, below, above)
 
 
 def _check(arrays, index_args, int16_args):
@@ -253,8 +269,8 @@ def top_path(typingctx, P, rb, wb, crow, cb, m, q, p1, tag):
     def codegen(context, builder, signature, args):
         P_, rb_, wb_, crow_, cb_, m_, q_, p1_, _ = args
         at = signature.args
-        prev = _load(context, builder, at[0], P_, _index(builder, rb_), D)
-        new = _update(builder, prev, _load(context, builder, at[3], crow_, cb_, D), m_, q_, p1_, D)
+        new = _top_update(context, builder, at[0], P_, rb_, _load(context, builder, at[3], crow_, cb_, D), m_, q_, p1_,
+                          D)
         _store(context, builder, new, at[0], P_, _index(builder, wb_), D)
         return _umin(builder, new, D)
 
@@ -275,7 +291,7 @@ def top_and_left(typingctx, PV, rv, wv, H, crow, cb, mv, qv, p1v, mh, qh, p1, sr
         PV_, rv_, wv_, H_, crow_, cb_, mv_, qv_, p1v_, mh_, qh_, p1_, srow_, _ = args
         at = signature.args
         cost = _load(context, builder, at[4], crow_, cb_, D)
-        vv = _update(builder, _load(context, builder, at[0], PV_, _index(builder, rv_), D), cost, mv_, qv_, p1v_, D)
+        vv = _top_update(context, builder, at[0], PV_, rv_, cost, mv_, qv_, p1v_, D)
         vh = _update(builder, H_, cost, mh_, qh_, p1_, D)
         _store(context, builder, vv, at[0], PV_, _index(builder, wv_), D)
         _store(context, builder, builder.add(vv, vh), at[12], srow_, cb_, D)
