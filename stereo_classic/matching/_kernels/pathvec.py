@@ -262,7 +262,9 @@ def _check_vectors(D, *vectors):
 @intrinsic
 def top_path(typingctx, P, rb, wb, crow, cb, m, q, p1, tag):
     """The top path alone (warm-up rows): ``P[wb + 1:][:D]`` = the update of ``P[rb + 1:][:D]`` with the costs
-    ``crow[cb:][:D]``; returns the new vector's minimum (unsigned)."""
+    ``crow[cb:][:D]``; returns the new vector's minimum (unsigned). ``P[rb]`` and ``P[rb + D + 1]`` must hold the
+    sentinel (``rowpass.path_slots`` puts it either side of every slot): they are read as the neighbours beyond
+    the range."""
     _check((P, crow), (rb, wb, cb), (m, q, p1))
     D = _tag_d(tag)
 
@@ -279,7 +281,7 @@ def top_path(typingctx, P, rb, wb, crow, cb, m, q, p1, tag):
 
 @intrinsic
 def top_and_left(typingctx, PV, rv, wv, H, crow, cb, mv, qv, p1v, mh, qh, p1, srow, tag):
-    """The top path (``PV``, as :func:`top_path`) and the left path (the previous pixel's vector ``H``, a
+    """The top path (``PV``, as :func:`top_path`, sentinels included) and the left path (the previous pixel's vector ``H``, a
     ``PathVector``) of one pixel from the same costs, their sum stored at ``srow[cb:][:D]``; returns the two new
     vectors' minima and the new left-path vector ``(top, left, H)``."""
     _check((PV, crow, srow), (rv, wv, cb), (mv, qv, p1v, mh, qh, p1))
