@@ -25,8 +25,8 @@ from numba import njit
 
 from stereo_classic.matching._kernels.colsums import (moved_column, sad_colsum_advance, sad_colsum_columns,
                                                       sad_colsum_init, sad_hsum_init, sad_reverse_pair)
-from stereo_classic.matching._kernels.features import (FEATURE_QUANT, FEATURE_SCALE, FEATURES,
-                                                       feature_row_cost, reverse_code_row)
+from stereo_classic.matching._kernels.features import (FEATURE_QUANT, FEATURE_SCALE, FEATURES, _census_at,
+                                                       _hamming, feature_row_cost, reverse_code_row)
 from stereo_classic.matching._kernels.intrinsics import (
     add16,
     lshr16,
@@ -35,7 +35,6 @@ from stereo_classic.matching._kernels.intrinsics import (
     mulhi16,
     mullo16,
     mulshr16,
-    popxor16,
     sub16,
 )
 from stereo_classic.matching._kernels.pipeline import NoAliasCompiler
@@ -328,23 +327,6 @@ def valid_range(x, W, dmin, D):  # pragma: no cover - numba
     """(k_lo, k_hi), inclusive: the disparity indices of column ``x`` whose match ``x - dmin - k`` lies inside the
     right image (none when k_lo > k_hi)."""
     return max(0, x - dmin - W + 1), min(D - 1, x - dmin)
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k):  # pragma: no cover - numba
-    """Census cost of disparity index k: the differing bits of the left code's quarters a0 .. a3 and the reversed
-    right row's (quarter q from ``rrev[jq]``)."""
-    return add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
-                 add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
-
-
-@njit(cache=True, nogil=True, inline="always")
-def _census_at(lcode, y, x, W, nrr):  # pragma: no cover - numba
-    """What ``_hamming`` reads for left pixel (y, x): its code's quarters, and where each quarter's reversed right row
-    (``reverse_code_row``, rows of ``nrr``) has the pixel's first candidate."""
-    j0 = W - 1 - x
-    return (lcode[y, 0, x], lcode[y, 1, x], lcode[y, 2, x], lcode[y, 3, x], j0, j0 + nrr, j0 + 2 * nrr,
-            j0 + 3 * nrr)
 
 
 @njit(cache=True, nogil=True, inline="always")

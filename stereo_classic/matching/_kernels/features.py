@@ -74,6 +74,23 @@ def reverse_code_row(rcode, y, dmin, nrr, rrev):  # pragma: no cover - numba
         reverse_run(rcode[y, q], K, rrev, q * nrr, nrr)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _hamming(rrev, a0, a1, a2, a3, j0, j1, j2, j3, k):  # pragma: no cover - numba
+    """Census cost of disparity index k: the differing bits of the left code's quarters a0 .. a3 and the reversed
+    right row's (quarter q from ``rrev[jq]``)."""
+    return add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j1 + k)])),
+                 add16(popxor16(a2, rrev[_U(j2 + k)]), popxor16(a3, rrev[_U(j3 + k)])))
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _census_at(lcode, y, x, W, nrr):  # pragma: no cover - numba
+    """What ``_hamming`` reads for left pixel (y, x): its code's quarters, and where each quarter's reversed right row
+    (``reverse_code_row``, rows of ``nrr``) has the pixel's first candidate."""
+    j0 = W - 1 - x
+    return (lcode[y, 0, x], lcode[y, 1, x], lcode[y, 2, x], lcode[y, 3, x], j0, j0 + nrr, j0 + 2 * nrr,
+            j0 + 3 * nrr)
+
+
 #: The census term of a learned cost is ``(h * census_mul + 2**(CENSUS_MUL_SHIFT - 1)) >> CENSUS_MUL_SHIFT`` for a
 #: Hamming distance ``h`` (``census_term_mul``): exact integers, rounded half up.
 CENSUS_MUL_SHIFT = 8
@@ -115,10 +132,8 @@ def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow, lcode, rcod
     D = crow.shape[0] // W
     dmin = cost.min_disparity
     nrr = W + D - 1
-    for ch in range(C):  # frev[ch * nrr + j] = right feature ch at column clamp(W - 1 - dmin - j)
-        base = ch * nrr
-        for j in range(nrr):
-            frev[_U(base + j)] = np.float32(rfeat[y, ch, _clamp(W - 1 - dmin - j, W)])
+    for ch in range(C):  # frev[ch * nrr + j] = right feature ch at column clamp(W - 1 - dmin - j), as float32
+        reverse_run(rfeat[y, ch], W - 1 - dmin, frev, ch * nrr, nrr)
     fbase = np.float32(cost.feature_base)
     fmul = np.float32(cost.feature_mul)
     top = np.float32(cost.cmax)
@@ -157,14 +172,9 @@ def feature_row_cost(lfeat, rfeat, cost, y, frev, facc, floor, crow, lcode, rcod
                     facc[k] += a * frev[_U(b + k)]
         cb = x * D
         if census:
-            a0 = lcode[y, 0, x]
-            a1 = lcode[y, 1, x]
-            a2 = lcode[y, 2, x]
-            a3 = lcode[y, 3, x]
+            a0, a1, a2, a3, q0, q1, q2, q3 = _census_at(lcode, y, x, W, nrr)
             for k in range(D):
-                ham[k] = add16(add16(popxor16(a0, rrev[_U(j0 + k)]), popxor16(a1, rrev[_U(j0 + nrr + k)])),
-                               add16(popxor16(a2, rrev[_U(j0 + 2 * nrr + k)]),
-                                     popxor16(a3, rrev[_U(j0 + 3 * nrr + k)])))
+                ham[k] = _hamming(rrev, a0, a1, a2, a3, q0, q1, q2, q3, k)
             for k in range(D):
                 v = min(max(fbase + facc[k] * fmul, zero), top)
                 t = np.int16((np.int32(ham[k]) * cmul + np.int32(1 << (CENSUS_MUL_SHIFT - 1))) >> CENSUS_MUL_SHIFT)
